@@ -1,0 +1,31 @@
+// Parameters of the pose-graph back end.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ccir_mapping::core::backend {
+
+/// How loop closures enter the pose graph: switchable constraints (default), plain least
+/// squares, Ceres' Cauchy or Huber losses, or dynamic covariance scaling.
+enum class RobustKernel { kSwitchable, kNone, kCauchy, kHuber, kDcs };
+constexpr std::string_view kRobustKernelChoices = "switchable | none | cauchy | huber | dcs";
+std::optional<RobustKernel> parseRobustKernel(std::string_view text);
+const char* toString(RobustKernel kernel);
+
+struct BackendParams {
+  RobustKernel robust_kernel = RobustKernel::kSwitchable;
+  /// Standard deviation of the prior that pulls each switch variable towards 1.
+  double switch_prior_sigma = 1.0;
+  /// The graph is re-optimised at this period (and when a loop closure arrives).
+  double optimize_period_s = 1.0;
+  /// Upper bound on one optimisation's wall time.
+  double max_solve_time_s = 0.5;
+  int max_iterations = 50;
+
+  std::vector<std::string> validate() const;
+};
+
+}  // namespace ccir_mapping::core::backend

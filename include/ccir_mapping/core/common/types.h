@@ -1,0 +1,30 @@
+// Plain types shared by the ROS-free core: time, ids and poses.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Geometry>
+
+namespace ccir_mapping::core {
+
+/// Time in nanoseconds (since the epoch or since the start of simulated time).
+using Stamp = std::int64_t;
+
+/// Keyframe id, unique per robot and increasing from 0.
+using KeyframeId = std::uint64_t;
+
+/// Rigid transform in 3D; poses are "frame expressed in parent frame".
+using Pose3 = Eigen::Isometry3d;
+
+constexpr double kNanosecondsPerSecond = 1e9;
+
+inline double toSeconds(Stamp stamp) { return static_cast<double>(stamp) / kNanosecondsPerSecond; }
+inline Stamp fromSeconds(double seconds) {
+  return static_cast<Stamp>(seconds * kNanosecondsPerSecond);
+}
+
+/// True when every coefficient is finite and the rotation is orthonormal.
+bool isValidPose(const Pose3& pose);
+
+}  // namespace ccir_mapping::core

@@ -1,0 +1,36 @@
+// Conversions between ROS messages and core types, and validation of incoming messages.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Transform.h>
+#include <ros/time.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include "ccir_mapping/core/common/types.h"
+
+namespace ccir_mapping::conversions {
+
+core::Stamp toStamp(const ros::Time& time);
+ros::Time toRosTime(core::Stamp stamp);
+
+/// nullopt when a coefficient is not finite or the quaternion is far from unit length.
+std::optional<core::Pose3> toPose(const geometry_msgs::Pose& pose);
+std::optional<core::Pose3> toPose(const geometry_msgs::Transform& transform);
+geometry_msgs::Pose toPoseMsg(const core::Pose3& pose);
+
+/// Which optional Velodyne fields a cloud has (x y z are required).
+struct CloudFields {
+  bool intensity = false;
+  bool ring = false;
+  bool time = false;
+};
+
+/// Checks a cloud before anything reads it: buffer size matches width, height and steps;
+/// x y z are FLOAT32 inside point_step; optional fields are reported. Returns an error that
+/// names the problem, or the fields found.
+std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, CloudFields* fields);
+
+}  // namespace ccir_mapping::conversions

@@ -1,0 +1,70 @@
+// Per-nodelet configuration: the ROS-side settings (robot name, frames, input choices) plus the
+// core Params struct, loaded from a ParamReader and validated in one go.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/backend/backend_params.h"
+#include "ccir_mapping/core/information/mapper_params.h"
+#include "ccir_mapping/core/place_recognition/matcher_params.h"
+#include "ccir_mapping/core/preprocess/preprocessor_params.h"
+#include "ccir_mapping/core/routing/broker_params.h"
+#include "ccir_mapping/core/transport/bridge_params.h"
+#include "ccir_mapping/ros/param_reader.h"
+
+namespace ccir_mapping::ros_params {
+
+/// Frames of one robot; defaults derive from the robot name ("robot_a/odom", ...).
+struct RobotFrames {
+  std::string robot_name = "robot";
+  std::string map_frame;
+  std::string odom_frame;
+  std::string base_frame;
+};
+
+struct PreprocessorSettings {
+  RobotFrames frames;
+  /// "topic": nav_msgs/Odometry on `odom` (base_frame in odom_frame); "tf": odom_frame ->
+  /// sensor frame from tf.
+  std::string odom_source = "topic";
+  core::preprocess::PreprocessorParams core;
+};
+
+struct MatcherSettings {
+  RobotFrames frames;
+  core::place_recognition::MatcherParams core;
+};
+
+struct BackendSettings {
+  RobotFrames frames;
+  /// Broadcast map -> odom (and team transforms) on tf.
+  bool publish_tf = true;
+  core::backend::BackendParams core;
+};
+
+struct MapperSettings {
+  RobotFrames frames;
+  core::information::MapperParams core;
+};
+
+struct BrokerSettings {
+  RobotFrames frames;
+  core::routing::BrokerParams core;
+};
+
+struct BridgeSettings {
+  RobotFrames frames;
+  core::transport::BridgeParams core;
+};
+
+/// Each loader reads every key it knows (leaving defaults for absent ones) and validates;
+/// problems end up in reader.errors().
+void load(ParamReader& reader, PreprocessorSettings& config);
+void load(ParamReader& reader, MatcherSettings& config);
+void load(ParamReader& reader, BackendSettings& config);
+void load(ParamReader& reader, MapperSettings& config);
+void load(ParamReader& reader, BrokerSettings& config);
+void load(ParamReader& reader, BridgeSettings& config);
+
+}  // namespace ccir_mapping::ros_params

@@ -1,0 +1,40 @@
+// Default topic names, all relative to the robot's namespace; expected to be remapped as needed.
+#pragma once
+
+namespace ccir_mapping::topics {
+
+// Sensor input.
+constexpr char kVelodynePoints[] = "velodyne_points";
+constexpr char kOdometry[] = "odom";
+
+// Inside one robot's manager (zero-copy).
+constexpr char kKeyframes[] = "keyframes";
+constexpr char kFeatures[] = "features";
+constexpr char kCorrespondences[] = "correspondences";
+constexpr char kLoopClosures[] = "loop_closures";
+constexpr char kTrajectory[] = "trajectory";
+constexpr char kTeamTransforms[] = "team_transforms";
+constexpr char kBrokerStats[] = "broker_stats";
+constexpr char kLinkStats[] = "link_stats";
+
+// To teammates, through the Bridge.
+constexpr char kOutboxFeatures[] = "outbox/features";
+constexpr char kOutboxOffers[] = "outbox/offers";
+constexpr char kOutboxRequests[] = "outbox/requests";
+constexpr char kOutboxScans[] = "outbox/scans";
+constexpr char kOutboxReceipts[] = "outbox/receipts";
+
+// From teammates, republished by the Bridge.
+constexpr char kInboxFeatures[] = "inbox/features";
+constexpr char kInboxOffers[] = "inbox/offers";
+constexpr char kInboxRequests[] = "inbox/requests";
+constexpr char kInboxScans[] = "inbox/scans";
+constexpr char kInboxReceipts[] = "inbox/receipts";
+
+// Queue sizes: keyframes are few and precious; stats only matter when fresh.
+constexpr int kSensorQueueSize = 5;
+constexpr int kKeyframeQueueSize = 100;
+constexpr int kMessageQueueSize = 50;
+constexpr int kLatestOnlyQueueSize = 1;
+
+}  // namespace ccir_mapping::topics

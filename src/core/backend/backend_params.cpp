@@ -1,0 +1,44 @@
+#include "ccir_mapping/core/backend/backend_params.h"
+
+#include <array>
+#include <utility>
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::backend {
+namespace {
+
+constexpr std::array<std::pair<RobustKernel, const char*>, 5> kNames{{
+    {RobustKernel::kSwitchable, "switchable"},
+    {RobustKernel::kNone, "none"},
+    {RobustKernel::kCauchy, "cauchy"},
+    {RobustKernel::kHuber, "huber"},
+    {RobustKernel::kDcs, "dcs"},
+}};
+
+}  // namespace
+
+std::optional<RobustKernel> parseRobustKernel(std::string_view text) {
+  for (const auto& [kernel, name] : kNames) {
+    if (text == name) return kernel;
+  }
+  return std::nullopt;
+}
+
+const char* toString(RobustKernel kernel) {
+  for (const auto& [k, name] : kNames) {
+    if (k == kernel) return name;
+  }
+  return "?";
+}
+
+std::vector<std::string> BackendParams::validate() const {
+  ParamCheck check;
+  check.inHalfOpenRange("switch_prior_sigma", switch_prior_sigma, 0.0, 100.0);
+  check.inRange("optimize_period_s", optimize_period_s, 0.01, 3600.0);
+  check.inRange("max_solve_time_s", max_solve_time_s, 0.001, 60.0);
+  check.inRange("max_iterations", max_iterations, 1, 10000);
+  return check.errors();
+}
+
+}  // namespace ccir_mapping::core::backend

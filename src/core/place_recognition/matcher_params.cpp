@@ -1,0 +1,24 @@
+#include "ccir_mapping/core/place_recognition/matcher_params.h"
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::place_recognition {
+
+std::optional<MatchMethod> parseMatchMethod(std::string_view text) {
+  if (text == "fabmap") return MatchMethod::kFabmap;
+  if (text == "histogram") return MatchMethod::kHistogram;
+  return std::nullopt;
+}
+
+const char* toString(MatchMethod method) {
+  return method == MatchMethod::kFabmap ? "fabmap" : "histogram";
+}
+
+std::vector<std::string> MatcherParams::validate() const {
+  ParamCheck check;
+  check.inRange("min_correspondences", min_correspondences, 0, 10000);
+  check.inRange("loop_exclusion_s", loop_exclusion_s, 0.0, 3600.0);
+  return check.errors();
+}
+
+}  // namespace ccir_mapping::core::place_recognition

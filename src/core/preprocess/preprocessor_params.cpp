@@ -1,0 +1,19 @@
+#include "ccir_mapping/core/preprocess/preprocessor_params.h"
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::preprocess {
+
+std::vector<std::string> PreprocessorParams::validate() const {
+  ParamCheck check;
+  check.inRange("min_range_m", min_range_m, 0.0, 50.0);
+  check.inHalfOpenRange("max_range_m", max_range_m, 0.0, 300.0);
+  check.require(max_range_m > min_range_m, "max_range_m must be greater than min_range_m");
+  check.inRange("voxel_leaf_m", voxel_leaf_m, 0.01, 5.0);
+  check.inRange("keyframe_distance_m", keyframe_distance_m, 0.0, 100.0);
+  check.inRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0);
+  check.inHalfOpenRange("odom_tolerance_s", odom_tolerance_s, 0.0, 5.0);
+  return check.errors();
+}
+
+}  // namespace ccir_mapping::core::preprocess

@@ -1,0 +1,50 @@
+#include "ccir_mapping/core/transport/bridge_params.h"
+
+#include <set>
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::transport {
+
+std::optional<Priority> parsePriority(std::string_view text) {
+  if (text == "control") return Priority::kControl;
+  if (text == "bulk") return Priority::kBulk;
+  return std::nullopt;
+}
+
+const char* toString(Priority priority) {
+  return priority == Priority::kControl ? "control" : "bulk";
+}
+
+std::vector<std::string> BridgeParams::validate(const std::string& own_robot_name) const {
+  ParamCheck check;
+  check.inRange("listen_port", listen_port, 0, 65535);
+  check.inRange("budget_bytes_per_s", budget_bytes_per_s, 1000.0, 1e9);
+  check.inRange("fragment_bytes", fragment_bytes, 1024, 1 << 20);
+  check.inRange("burst_bytes", burst_bytes, 1024, 1 << 26);
+  check.require(burst_bytes >= fragment_bytes,
+                "burst_bytes must be at least fragment_bytes, or a fragment can never be sent");
+  check.inRange("stats_period_s", stats_period_s, 0.05, 3600.0);
+
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    const PeerConfig& peer = peers[i];
+    const std::string prefix = "peers[" + std::to_string(i) + "].";
+    check.robotName(prefix + "name", peer.name);
+    check.require(peer.name != own_robot_name, prefix + "name = '" + peer.name +
+                                                   "' is this robot's own name");
+    check.require(names.insert(peer.name).second,
+                  prefix + "name = '" + peer.name + "' appears twice");
+    check.require(!peer.host.empty(), prefix + "host is empty");
+    check.inRange(prefix + "port", peer.port, 1, 65535);
+  }
+  for (std::size_t i = 0; i < topics.size(); ++i) {
+    const std::string& topic = topics[i].topic;
+    const std::string name = "topics[" + std::to_string(i) + "].topic";
+    check.require(topic.rfind("outbox/", 0) == 0 && topic.size() > 7,
+                  name + " = '" + topic + "' is not allowed: allowed relative topics under outbox/");
+  }
+  return check.errors();
+}
+
+}  // namespace ccir_mapping::core::transport

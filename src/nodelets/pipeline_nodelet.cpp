@@ -1,0 +1,69 @@
+#include "pipeline_nodelet.h"
+
+#include <sstream>
+
+namespace ccir_mapping {
+
+PipelineNodelet::~PipelineNodelet() {
+  std::lock_guard<std::mutex> lock(flow_mutex_);
+  if (flows_.empty()) return;
+  std::ostringstream summary;
+  for (const auto& [name, flow] : flows_) summary << " " << name << "=" << flow.messages;
+  NODELET_INFO("flow at shutdown:%s", summary.str().c_str());
+}
+
+XmlRpc::XmlRpcValue PipelineNodelet::privateParams() {
+  XmlRpc::XmlRpcValue values;
+  // Absent namespace = no parameters set: every default applies.
+  if (!ros::param::get(getPrivateNodeHandle().getNamespace(), values)) return {};
+  return values;
+}
+
+bool PipelineNodelet::reportSettings(const ros_params::ParamReader& reader,
+                                     const std::string& robot_name) {
+  for (const std::string& key : reader.unknownKeys()) {
+    NODELET_WARN("unknown parameter %s/%s is ignored (a typo?)", reader.ns().c_str(), key.c_str());
+  }
+  config_errors_ = reader.errors();
+  for (const std::string& error : config_errors_) {
+    NODELET_FATAL("invalid parameter in %s: %s; this nodelet stays inert", reader.ns().c_str(),
+                  error.c_str());
+  }
+  if (config_errors_.empty()) NODELET_INFO("parameters: %s", reader.summary().c_str());
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(
+      getNodeHandle(), getPrivateNodeHandle(), getName());
+  diagnostics_->setHardwareID(robot_name);
+  diagnostics_->add("flow", this, &PipelineNodelet::produceDiagnostics);
+  diagnostics_timer_ = getNodeHandle().createSteadyTimer(
+      ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { diagnostics_->force_update(); });
+  return config_errors_.empty();
+}
+
+void PipelineNodelet::count(const std::string& flow, std::uint64_t bytes) {
+  std::lock_guard<std::mutex> lock(flow_mutex_);
+  Flow& f = flows_[flow];
+  ++f.messages;
+  f.bytes += bytes;
+}
+
+void PipelineNodelet::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  if (!config_errors_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "inert: invalid parameters");
+    for (std::size_t i = 0; i < config_errors_.size(); ++i) {
+      status.add("error " + std::to_string(i), config_errors_[i]);
+    }
+    return;
+  }
+  status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+  {
+    std::lock_guard<std::mutex> lock(flow_mutex_);
+    for (const auto& [name, flow] : flows_) {
+      status.add(name + " messages", flow.messages);
+      if (flow.bytes) status.add(name + " bytes", flow.bytes);
+    }
+  }
+  addDiagnostics(status);
+}
+
+}  // namespace ccir_mapping

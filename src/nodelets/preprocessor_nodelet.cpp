@@ -1,0 +1,221 @@
+// Preprocessor: velodyne_points + odometry -> keyframes. Thin: checks input, places each scan
+// with odometry, lets the core decide keyframes, publishes them zero-copy.
+#include <deque>
+#include <mutex>
+
+#include <dynamic_reconfigure/server.h>
+#include <nav_msgs/Odometry.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/PreprocessorConfig.h"
+#include "ccir_mapping/core/preprocess/keyframe_selector.h"
+#include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/ros/conversions.h"
+#include "ccir_mapping/ros/params.h"
+#include "ccir_mapping/ros/topics.h"
+#include "pipeline_nodelet.h"
+
+namespace ccir_mapping {
+
+using core::preprocess::KeyframeSelector;
+
+class PreprocessorNodelet final : public PipelineNodelet {
+ private:
+  void onInit() override {
+    if (!loadSettings(settings_)) return;
+    ros::NodeHandle& nh = getNodeHandle();
+    selector_ = std::make_unique<KeyframeSelector>(selectorParams(settings_.core));
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh);
+
+    keyframe_pub_ = nh.advertise<Keyframe>(topics::kKeyframes, topics::kKeyframeQueueSize);
+    if (settings_.odom_source == "topic") {
+      odom_sub_ = nh.subscribe(topics::kOdometry, 100, &PreprocessorNodelet::onOdometry, this);
+    }
+    cloud_sub_ = nh.subscribe(topics::kVelodynePoints, topics::kSensorQueueSize,
+                              &PreprocessorNodelet::onCloud, this);
+
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<PreprocessorConfig>>(
+        reconfigure_mutex_, getPrivateNodeHandle());
+    reconfigure_->setCallback(
+        [this](PreprocessorConfig& config, uint32_t) { onReconfigure(config); });
+  }
+
+  static KeyframeSelector::Params selectorParams(const core::preprocess::PreprocessorParams& p) {
+    return {p.keyframe_distance_m, p.keyframe_rotation_deg * M_PI / 180.0};
+  }
+
+  void onOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
+    count("in odom");
+    if (msg->header.frame_id != settings_.frames.odom_frame ||
+        msg->child_frame_id != settings_.frames.base_frame) {
+      NODELET_WARN_THROTTLE(5.0, "dropping odometry in frames '%s' -> '%s': expected '%s' -> '%s'",
+                            msg->header.frame_id.c_str(), msg->child_frame_id.c_str(),
+                            settings_.frames.odom_frame.c_str(), settings_.frames.base_frame.c_str());
+      count("dropped odom");
+      return;
+    }
+    const auto pose = conversions::toPose(msg->pose.pose);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!pose || !odometry_.add(conversions::toStamp(msg->header.stamp), *pose)) {
+      NODELET_WARN_THROTTLE(5.0, "dropping odometry at %.3f: %s", msg->header.stamp.toSec(),
+                            pose ? "stamp not after the previous one" : "pose is not finite");
+      count("dropped odom");
+      return;
+    }
+    // Scans wait until odometry at or after their stamp has arrived.
+    while (!pending_.empty() && pending_.front()->header.stamp <= msg->header.stamp) {
+      process(pending_.front());
+      pending_.pop_front();
+    }
+  }
+
+  // Pose of the sensor frame in the odom frame at the scan stamp, or an explanation.
+  std::optional<core::Pose3> sensorPose(const sensor_msgs::PointCloud2& cloud, std::string& why) {
+    const std::string& sensor = cloud.header.frame_id;
+    try {
+      if (settings_.odom_source == "tf") {
+        return tf2::transformToEigen(
+            tf_buffer_.lookupTransform(settings_.frames.odom_frame, sensor, cloud.header.stamp));
+      }
+      const std::optional<core::Pose3> base =
+          odometry_.at(conversions::toStamp(cloud.header.stamp), settings_.core.odom_tolerance_s);
+      if (!base) {
+        why = "no odometry within odom_tolerance_s of the scan";
+        return std::nullopt;
+      }
+      if (sensor == settings_.frames.base_frame) return base;
+      // The sensor mount is static: the latest transform is the right one.
+      return *base * tf2::transformToEigen(
+                         tf_buffer_.lookupTransform(settings_.frames.base_frame, sensor, ros::Time(0)));
+    } catch (const tf2::TransformException& e) {
+      why = e.what();
+      return std::nullopt;
+    }
+  }
+
+  void onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+    count("in velodyne_points", msg->data.size());
+    conversions::CloudFields fields;
+    if (const auto error = conversions::checkCloud(*msg, &fields)) {
+      NODELET_WARN_THROTTLE(5.0, "dropping malformed cloud at %.3f: %s", msg->header.stamp.toSec(),
+                            error->c_str());
+      count("dropped scans");
+      return;
+    }
+    if (msg->header.frame_id.empty()) {
+      NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: empty frame_id", msg->header.stamp.toSec());
+      count("dropped scans");
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (settings_.odom_source == "tf") return process(msg);
+    const auto newest = odometry_.newestStamp();
+    if (newest && conversions::toStamp(msg->header.stamp) <= *newest) return process(msg);
+    pending_.push_back(msg);
+    if (pending_.size() > kMaxPendingScans) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "dropping cloud at %.3f: no odometry at or after its stamp on '%s' "
+                            "(newest odometry: %s)",
+                            pending_.front()->header.stamp.toSec(),
+                            getNodeHandle().resolveName(topics::kOdometry).c_str(),
+                            newest ? std::to_string(core::toSeconds(*newest)).c_str() : "none");
+      pending_.pop_front();
+      count("dropped scans");
+    }
+  }
+
+  // Places a checked scan with odometry and publishes it if it makes a keyframe. Holds mutex_.
+  void process(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+    std::string why;
+    const auto pose = sensorPose(*msg, why);
+    if (!pose) {
+      NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: cannot place it: %s",
+                            msg->header.stamp.toSec(), why.c_str());
+      count("dropped scans");
+      return;
+    }
+
+    const KeyframeSelector::Decision decision =
+        selector_->offer(conversions::toStamp(msg->header.stamp), *pose);
+    switch (decision.outcome) {
+      case KeyframeSelector::Outcome::kSkipped:
+        return;
+      case KeyframeSelector::Outcome::kStampNotIncreasing:
+        NODELET_WARN_THROTTLE(5.0,
+                              "dropping cloud at %.3f: stamp not after the previous scan (a bag "
+                              "replayed again? restart the pipeline)",
+                              msg->header.stamp.toSec());
+        count("dropped scans");
+        return;
+      case KeyframeSelector::Outcome::kInvalidPose:
+        NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: its pose is not finite",
+                              msg->header.stamp.toSec());
+        count("dropped scans");
+        return;
+      case KeyframeSelector::Outcome::kKeyframe:
+        break;
+    }
+
+    auto keyframe = boost::make_shared<Keyframe>();
+    keyframe->header = msg->header;
+    keyframe->robot = settings_.frames.robot_name;
+    keyframe->id = decision.id;
+    keyframe->odom_frame = settings_.frames.odom_frame;
+    keyframe->odom_pose = conversions::toPoseMsg(*pose);
+    keyframe->travelled_m = static_cast<float>(decision.travelled_m);
+    keyframe->rotated_rad = static_cast<float>(decision.rotated_rad);
+    // Filtering, down-sampling and normals arrive with the preprocessing core; until then the
+    // keyframe carries the scan as received.
+    keyframe->cloud = *msg;
+    count("out keyframes", keyframe->cloud.data.size());
+    keyframe_pub_.publish(keyframe);
+  }
+
+  void onReconfigure(PreprocessorConfig& config) {
+    // The server already holds reconfigure_mutex_; mutex_ guards what callbacks read.
+    std::lock_guard<std::mutex> lock(mutex_);
+    core::preprocess::PreprocessorParams candidate = settings_.core;
+    candidate.min_range_m = config.min_range_m;
+    candidate.max_range_m = config.max_range_m;
+    candidate.voxel_leaf_m = config.voxel_leaf_m;
+    candidate.keyframe_distance_m = config.keyframe_distance_m;
+    candidate.keyframe_rotation_deg = config.keyframe_rotation_deg;
+    const auto errors = candidate.validate();
+    if (!errors.empty()) {
+      NODELET_ERROR("reconfigure rejected: %s", errors.front().c_str());
+      config.min_range_m = settings_.core.min_range_m;
+      config.max_range_m = settings_.core.max_range_m;
+      config.voxel_leaf_m = settings_.core.voxel_leaf_m;
+      config.keyframe_distance_m = settings_.core.keyframe_distance_m;
+      config.keyframe_rotation_deg = settings_.core.keyframe_rotation_deg;
+      return;
+    }
+    settings_.core = candidate;
+    selector_->setParams(selectorParams(candidate));
+  }
+
+  // Two seconds of VLP-16 scans at 10 Hz.
+  static constexpr std::size_t kMaxPendingScans = 20;
+
+  ros_params::PreprocessorSettings settings_;
+  std::mutex mutex_;  // guards everything below that callbacks touch
+  std::deque<sensor_msgs::PointCloud2::ConstPtr> pending_;
+  std::unique_ptr<KeyframeSelector> selector_;
+  core::preprocess::OdometryBuffer odometry_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  ros::Publisher keyframe_pub_;
+  ros::Subscriber odom_sub_;
+  ros::Subscriber cloud_sub_;
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<PreprocessorConfig>> reconfigure_;
+};
+
+}  // namespace ccir_mapping
+
+PLUGINLIB_EXPORT_CLASS(ccir_mapping::PreprocessorNodelet, nodelet::Nodelet)
