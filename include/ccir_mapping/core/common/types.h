@@ -1,6 +1,7 @@
 // Plain types shared by the ROS-free core: time, ids and poses.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -20,8 +21,9 @@ using Pose3 = Eigen::Isometry3d;
 constexpr double kNanosecondsPerSecond = 1e9;
 
 inline double toSeconds(Stamp stamp) { return static_cast<double>(stamp) / kNanosecondsPerSecond; }
+/// Rounds to the nearest nanosecond (1.025 s * 1e9 is 1024999999.99... in binary).
 inline Stamp fromSeconds(double seconds) {
-  return static_cast<Stamp>(seconds * kNanosecondsPerSecond);
+  return static_cast<Stamp>(std::llround(seconds * kNanosecondsPerSecond));
 }
 
 /// True when every coefficient is finite and the rotation is orthonormal.

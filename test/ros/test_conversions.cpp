@@ -1,0 +1,94 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include "ccir_mapping/ros/conversions.h"
+
+namespace ccir_mapping::conversions {
+namespace {
+
+sensor_msgs::PointCloud2 velodyneCloud(int points) {
+  sensor_msgs::PointCloud2 cloud;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                                sensor_msgs::PointField::FLOAT32, "z", 1,
+                                sensor_msgs::PointField::FLOAT32, "intensity", 1,
+                                sensor_msgs::PointField::FLOAT32, "ring", 1,
+                                sensor_msgs::PointField::UINT16, "time", 1,
+                                sensor_msgs::PointField::FLOAT32);
+  modifier.resize(points);
+  return cloud;
+}
+
+TEST(Conversions, StampsRoundTripInNanoseconds) {
+  const ros::Time time(1700000000, 123456789);
+  EXPECT_EQ(toStamp(time), 1700000000123456789LL);
+  EXPECT_EQ(toRosTime(toStamp(time)), time);
+}
+
+TEST(Conversions, PoseRoundTrip) {
+  core::Pose3 pose = core::Pose3::Identity();
+  pose.translation() = Eigen::Vector3d(1.0, -2.0, 0.5);
+  pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const auto back = toPose(toPoseMsg(pose));
+  ASSERT_TRUE(back.has_value());
+  EXPECT_TRUE(back->isApprox(pose, 1e-12));
+}
+
+TEST(Conversions, RejectsNonFiniteAndNonUnitPoses) {
+  geometry_msgs::Pose pose;
+  pose.orientation.w = 1.0;
+  EXPECT_TRUE(toPose(pose).has_value());
+  pose.position.x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(toPose(pose).has_value());
+  pose.position.x = 0.0;
+  pose.orientation.w = 0.0;  // the all-zero quaternion a careless publisher sends
+  EXPECT_FALSE(toPose(pose).has_value());
+  pose.orientation.w = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(toPose(pose).has_value());
+}
+
+TEST(Conversions, AcceptsAVelodyneCloudAndReportsItsFields) {
+  CloudFields fields;
+  EXPECT_FALSE(checkCloud(velodyneCloud(100), &fields).has_value());
+  EXPECT_TRUE(fields.intensity);
+  EXPECT_TRUE(fields.ring);
+  EXPECT_TRUE(fields.time);
+}
+
+TEST(Conversions, ReportsMissingOptionalFields) {
+  sensor_msgs::PointCloud2 cloud;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(10);
+  CloudFields fields;
+  EXPECT_FALSE(checkCloud(cloud, &fields).has_value());
+  EXPECT_FALSE(fields.ring);
+  EXPECT_FALSE(fields.intensity);
+}
+
+TEST(Conversions, RejectsMalformedClouds) {
+  EXPECT_EQ(*checkCloud(sensor_msgs::PointCloud2(), nullptr), "the cloud is empty");
+
+  auto truncated = velodyneCloud(100);
+  truncated.data.resize(truncated.data.size() - 1);
+  EXPECT_NE(checkCloud(truncated, nullptr)->find("data holds"), std::string::npos);
+
+  auto no_z = velodyneCloud(10);
+  no_z.fields[2].name = "q";
+  EXPECT_EQ(*checkCloud(no_z, nullptr), "field 'z' is missing");
+
+  auto double_x = velodyneCloud(10);
+  double_x.fields[0].datatype = sensor_msgs::PointField::FLOAT64;
+  EXPECT_EQ(*checkCloud(double_x, nullptr), "field 'x' is not one FLOAT32 inside point_step");
+
+  auto bad_row = velodyneCloud(10);
+  bad_row.row_step = 4;
+  EXPECT_NE(checkCloud(bad_row, nullptr)->find("row_step"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::conversions

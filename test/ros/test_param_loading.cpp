@@ -1,0 +1,126 @@
+// Loading nodelet settings from the parameter-server representation, without a master.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "ccir_mapping/ros/params.h"
+#include "yaml_to_xmlrpc.h"
+
+namespace ccir_mapping::ros_params {
+namespace {
+
+XmlRpc::XmlRpcValue params(const std::string& yaml) {
+  return testing::toXmlRpc(YAML::Load(yaml));
+}
+
+bool hasError(const ParamReader& reader, const std::string& start) {
+  return std::any_of(reader.errors().begin(), reader.errors().end(),
+                     [&](const std::string& e) { return e.rfind(start, 0) == 0; });
+}
+
+TEST(ParamLoading, AbsentNamespaceGivesValidDefaults) {
+  ParamReader reader{XmlRpc::XmlRpcValue()};
+  PreprocessorSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_EQ(settings.frames.odom_frame, "robot/odom");
+  EXPECT_DOUBLE_EQ(settings.core.voxel_leaf_m, 0.1);
+}
+
+TEST(ParamLoading, ReadsValuesAndDerivesFramesFromTheRobotName) {
+  ParamReader reader{params("{robot_name: uav2, voxel_leaf_m: 0.2, keyframe_distance_m: 2}")};
+  PreprocessorSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_DOUBLE_EQ(settings.core.voxel_leaf_m, 0.2);
+  EXPECT_DOUBLE_EQ(settings.core.keyframe_distance_m, 2.0);  // an int is accepted as a number
+  EXPECT_EQ(settings.frames.map_frame, "uav2/map");
+  EXPECT_EQ(settings.frames.base_frame, "uav2/base_link");
+  EXPECT_NE(reader.summary().find("voxel_leaf_m=0.2"), std::string::npos);
+}
+
+TEST(ParamLoading, OutOfRangeValueNamesParameterAndRange) {
+  ParamReader reader{params("{voxel_leaf_m: -1.0}")};
+  PreprocessorSettings settings;
+  load(reader, settings);
+  ASSERT_EQ(reader.errors().size(), 1u);
+  EXPECT_EQ(reader.errors()[0], "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");
+}
+
+TEST(ParamLoading, WrongTypesAreErrors) {
+  ParamReader reader{params("{voxel_leaf_m: fine, fixed_rate_every_n: 2.5, mode: 3}")};
+  PreprocessorSettings pre;
+  load(reader, pre);
+  EXPECT_TRUE(hasError(reader, "voxel_leaf_m has the wrong type: expected a number"));
+
+  ParamReader broker_reader{params("{fixed_rate_every_n: 2.5, mode: 3}")};
+  BrokerSettings broker;
+  load(broker_reader, broker);
+  EXPECT_TRUE(hasError(broker_reader, "fixed_rate_every_n has the wrong type: expected an integer"));
+  EXPECT_TRUE(hasError(broker_reader, "mode has the wrong type: expected a string"));
+}
+
+TEST(ParamLoading, UnknownChoiceListsTheAllowedOnes) {
+  ParamReader reader{params("{robust_kernel: tukey}")};
+  BackendSettings settings;
+  load(reader, settings);
+  ASSERT_EQ(reader.errors().size(), 1u);
+  EXPECT_EQ(reader.errors()[0],
+            "robust_kernel = 'tukey' is not allowed: allowed switchable | none | cauchy | huber | dcs");
+}
+
+TEST(ParamLoading, InvalidRobotNameAndFrames) {
+  ParamReader reader{params("{robot_name: 'robot a', odom_frame: /odom}")};
+  MapperSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(hasError(reader, "robot_name = 'robot a' is not a valid robot name"));
+  EXPECT_TRUE(hasError(reader, "odom_frame = '/odom' is not allowed"));
+}
+
+TEST(ParamLoading, UnknownKeysAreReported) {
+  ParamReader reader{params("{voxel_leaf: 0.2, voxel_leaf_m: 0.2}")};
+  PreprocessorSettings settings;
+  load(reader, settings);
+  EXPECT_EQ(reader.unknownKeys(), std::vector<std::string>{"voxel_leaf"});
+}
+
+TEST(ParamLoading, BridgePeersAndTopics) {
+  ParamReader reader{params(R"({robot_name: robot_a,
+      peers: [{name: robot_b, host: 127.0.0.1, port: 17002}],
+      topics: [{topic: outbox/scans, priority: bulk}, {topic: outbox/offers}]})")};
+  BridgeSettings settings;
+  load(reader, settings);
+  ASSERT_TRUE(reader.errors().empty()) << reader.errors()[0];
+  ASSERT_EQ(settings.core.peers.size(), 1u);
+  EXPECT_EQ(settings.core.peers[0].name, "robot_b");
+  EXPECT_EQ(settings.core.peers[0].port, 17002);
+  ASSERT_EQ(settings.core.topics.size(), 2u);
+  EXPECT_EQ(settings.core.topics[0].priority, core::transport::Priority::kBulk);
+  EXPECT_EQ(settings.core.topics[1].priority, core::transport::Priority::kControl);
+}
+
+TEST(ParamLoading, BridgeDefaultsForwardTheWholeProtocol) {
+  ParamReader reader{params("{robot_name: robot_a}")};
+  BridgeSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_EQ(settings.core.topics.size(), 5u);
+}
+
+TEST(ParamLoading, MalformedBridgeLists) {
+  ParamReader reader{params(
+      "{peers: {name: robot_b}, topics: [outbox/scans, {topic: outbox/x, priority: urgent}]}")};
+  BridgeSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(hasError(reader, "peers has the wrong type: expected a list"));
+  EXPECT_TRUE(hasError(reader, "topics[0] has the wrong type: expected a dictionary"));
+  EXPECT_TRUE(hasError(reader, "topics[1].priority = 'urgent' is not allowed"));
+}
+
+TEST(ParamLoading, ANonStructNamespaceIsAnError) {
+  ParamReader reader{XmlRpc::XmlRpcValue(3)};
+  EXPECT_FALSE(reader.errors().empty());
+}
+
+}  // namespace
+}  // namespace ccir_mapping::ros_params

@@ -1,0 +1,87 @@
+// A nodelet with an invalid parameter logs FATAL naming it and its allowed range, reports ERROR
+// on diagnostics and stays inert; the valid nodelets in the same manager keep running.
+#include <gtest/gtest.h>
+
+#include <cctype>
+#include <map>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <nodelet/NodeletLoad.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
+
+#include "wait_for.h"
+
+namespace {
+
+using ccir_mapping::testing::waitFor;
+
+bool advertised(const std::string& topic) {
+  ros::master::V_TopicInfo topics;
+  ros::master::getTopics(topics);
+  for (const auto& info : topics) {
+    if (info.name == topic) return true;
+  }
+  return false;
+}
+
+TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
+  ros::NodeHandle nh;
+  std::vector<rosgraph_msgs::Log::ConstPtr> log;  // everything on /rosout since subscribing
+  std::map<std::string, diagnostic_msgs::DiagnosticStatus> status;
+  auto log_sub = nh.subscribe<rosgraph_msgs::Log>(
+      "/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) { log.push_back(m); });
+  auto diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        for (const auto& s : m->status) status[s.name] = s;
+      });
+  auto fatal = [&](const std::string& text) {
+    for (const auto& m : log) {
+      if (m->level == rosgraph_msgs::Log::FATAL && m->msg.find(text) != std::string::npos) return true;
+    }
+    return false;
+  };
+
+  // /rosout is not latched: load the nodelets only once this test hears the manager's log.
+  ASSERT_TRUE(ros::service::waitForService("/manager/load_nodelet", ros::Duration(30.0)));
+  ASSERT_TRUE(waitFor([&] { return log_sub.getNumPublishers() >= 2; }, 30.0))
+      << "not connected to the manager's /rosout (publishers: " << log_sub.getNumPublishers() << ")";
+  for (const char* name : {"preprocessor", "bridge", "matcher"}) {
+    nodelet::NodeletLoad load;
+    load.request.name = std::string("/") + name;
+    load.request.type = std::string("ccir_mapping/") + static_cast<char>(std::toupper(name[0])) + (name + 1);
+    ASSERT_TRUE(ros::service::call("/manager/load_nodelet", load)) << name;
+    EXPECT_TRUE(load.response.success) << name;
+  }
+
+  EXPECT_TRUE(waitFor([&] { return fatal("voxel_leaf_m = -1 is out of range: allowed [0.01, 5]"); }, 30.0));
+  EXPECT_TRUE(waitFor([&] { return fatal("peers[0].port = 99999 is out of range: allowed [1, 65535]"); }, 30.0));
+  // Diagnostics say why the nodelets are inert (published a second after onInit returned).
+  ASSERT_TRUE(waitFor([&] {
+    return status.count("preprocessor: flow") && status.count("bridge: flow") &&
+           status.count("matcher: flow");
+  }, 30.0)) << [&] {
+    std::string names;
+    for (const auto& [name, s] : status) names += " '" + name + "'";
+    return "diagnostics seen:" + names;
+  }();
+  EXPECT_EQ(status["preprocessor: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_EQ(status["bridge: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_EQ(status["matcher: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);
+  ASSERT_FALSE(status["preprocessor: flow"].values.empty());
+  EXPECT_EQ(status["preprocessor: flow"].values[0].value,
+            "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");
+  // Inert: nothing advertised by the invalid nodelets, the valid Matcher advertises features.
+  EXPECT_FALSE(advertised("/keyframes"));
+  EXPECT_FALSE(advertised("/link_stats"));
+  EXPECT_TRUE(advertised("/features"));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "invalid_params_check");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

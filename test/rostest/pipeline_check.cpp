@@ -1,0 +1,211 @@
+// Drives one robot's pipeline (launch/robot.launch) with scans and odometry and checks what
+// flows out of each nodelet, including how bad input is dropped without stopping the pipeline.
+#include <gtest/gtest.h>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include "ccir_mapping/BrokerStats.h"
+#include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/KeyframeFeatures.h"
+#include "ccir_mapping/LinkStats.h"
+#include "wait_for.h"
+
+namespace ccir_mapping {
+namespace {
+
+using testing::waitFor;
+
+constexpr double kSensorHeightM = 0.5;
+constexpr double kStepM = 0.5;
+
+class Pipeline : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { instance_ = new Pipeline::State(); }
+  static void TearDownTestSuite() { delete instance_; }
+
+  struct State {
+    ros::NodeHandle nh;
+    ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("velodyne_points", 10);
+    ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
+    tf2_ros::StaticTransformBroadcaster static_tf;
+    std::vector<Keyframe::ConstPtr> keyframes;
+    std::vector<KeyframeFeatures::ConstPtr> features;
+    std::vector<Keyframe::ConstPtr> outbox_scans;
+    nav_msgs::Path::ConstPtr trajectory;
+    BrokerStats::ConstPtr broker_stats;
+    LinkStats::ConstPtr link_stats;
+    std::vector<rosgraph_msgs::Log::ConstPtr> log;
+    std::vector<ros::Subscriber> subs;
+    int scan = 0;  // scans published so far; scan i is stamped t0 + 0.1 i
+    double t0 = 1000.0;
+
+    State() {
+      subs.push_back(nh.subscribe<Keyframe>("keyframes", 100, [this](const auto& m) { keyframes.push_back(m); }));
+      subs.push_back(nh.subscribe<KeyframeFeatures>("outbox/features", 100, [this](const auto& m) { features.push_back(m); }));
+      subs.push_back(nh.subscribe<Keyframe>("outbox/scans", 100, [this](const auto& m) { outbox_scans.push_back(m); }));
+      subs.push_back(nh.subscribe<nav_msgs::Path>("trajectory", 1, [this](const auto& m) { trajectory = m; }));
+      subs.push_back(nh.subscribe<BrokerStats>("broker_stats", 1, [this](const auto& m) { broker_stats = m; }));
+      subs.push_back(nh.subscribe<LinkStats>("link_stats", 10, [this](const auto& m) { link_stats = m; }));
+      subs.push_back(nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [this](const auto& m) { log.push_back(m); }));
+
+      geometry_msgs::TransformStamped mount;
+      mount.header.frame_id = "robot_a/base_link";
+      mount.child_frame_id = "robot_a/velodyne";
+      mount.transform.translation.z = kSensorHeightM;
+      mount.transform.rotation.w = 1.0;
+      static_tf.sendTransform(mount);
+
+      EXPECT_TRUE(waitFor([this] {
+        return cloud_pub.getNumSubscribers() > 0 && odom_pub.getNumSubscribers() > 0 &&
+               subs[0].getNumPublishers() > 0 && subs[1].getNumPublishers() > 0 &&
+               subs[2].getNumPublishers() > 0;
+      }, 30.0)) << "the pipeline did not come up";
+    }
+
+    ros::Time stamp(int i) const { return ros::Time(t0 + 0.1 * i); }
+
+    static sensor_msgs::PointCloud2 cloud(const std::string& frame, ros::Time stamp) {
+      sensor_msgs::PointCloud2 c;
+      c.header.frame_id = frame;
+      c.header.stamp = stamp;
+      sensor_msgs::PointCloud2Modifier modifier(c);
+      modifier.setPointCloud2FieldsByString(1, "xyz");
+      modifier.resize(1000);
+      sensor_msgs::PointCloud2Iterator<float> x(c, "x");
+      for (int i = 0; x != x.end(); ++x, ++i) {
+        x[0] = static_cast<float>(5.0 * std::cos(i * 0.00628));
+        x[1] = static_cast<float>(5.0 * std::sin(i * 0.00628));
+        x[2] = 0.0f;
+      }
+      return c;
+    }
+
+    void publishOdometry(ros::Time stamp, double x, const std::string& frame = "robot_a/odom") {
+      auto odom = boost::make_shared<nav_msgs::Odometry>();
+      odom->header.stamp = stamp;
+      odom->header.frame_id = frame;
+      odom->child_frame_id = "robot_a/base_link";
+      odom->pose.pose.position.x = x;
+      odom->pose.pose.orientation.w = 1.0;
+      odom_pub.publish(odom);
+    }
+
+    // Publishes a scan at odometry x (cloud first, odometry after it, as drivers often do).
+    void publishScanAt(double x, const std::string& frame = "robot_a/velodyne") {
+      const ros::Time t = stamp(scan++);
+      cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(cloud(frame, t)));
+      publishOdometry(t, x);
+    }
+
+    bool logged(uint8_t level, const std::string& text) const {
+      for (const auto& entry : log) {
+        if (entry->level == level && entry->msg.find(text) != std::string::npos) return true;
+      }
+      return false;
+    }
+  };
+  static State* instance_;
+  State& s() { return *instance_; }
+};
+Pipeline::State* Pipeline::instance_ = nullptr;
+
+TEST_F(Pipeline, KeyframesFollowOdometryDistance) {
+  // Keyframe 0 needs the sensor mount from /tf_static: repeat the first pose until it is made.
+  int polls = 0;
+  ASSERT_TRUE(waitFor([&] {
+    if (s().keyframes.empty() && polls++ % 20 == 0) s().publishScanAt(0.0);
+    return !s().keyframes.empty();
+  }, 30.0)) << "no first keyframe";
+  // Then scans every 0.5 m: every second one is a keyframe (keyframe_distance_m = 1).
+  for (int k = 1; k < 10; ++k) {
+    s().publishScanAt(k - kStepM);
+    s().publishScanAt(k);
+    ASSERT_TRUE(waitFor([&] { return s().keyframes.size() == static_cast<std::size_t>(k) + 1; }, 10.0))
+        << "keyframe " << k << " did not arrive";
+  }
+  ASSERT_EQ(s().keyframes.size(), 10u);
+  for (std::size_t k = 0; k < s().keyframes.size(); ++k) {
+    const Keyframe& kf = *s().keyframes[k];
+    EXPECT_EQ(kf.id, k);
+    EXPECT_EQ(kf.robot, "robot_a");
+    EXPECT_EQ(kf.header.frame_id, "robot_a/velodyne");
+    EXPECT_EQ(kf.odom_frame, "robot_a/odom");
+    EXPECT_NEAR(kf.odom_pose.position.x, 1.0 * k, 1e-9);
+    EXPECT_NEAR(kf.odom_pose.position.z, kSensorHeightM, 1e-9);  // the sensor mount is applied
+    EXPECT_NEAR(kf.travelled_m, k == 0 ? 0.0 : 1.0, 1e-6);
+    EXPECT_EQ(kf.cloud.width * kf.cloud.height, 1000u);
+  }
+}
+
+TEST_F(Pipeline, FeaturesAndTrajectoryFollowKeyframes) {
+  ASSERT_TRUE(waitFor([this] { return s().features.size() >= 10; }, 10.0));
+  for (std::size_t k = 0; k < 10; ++k) {
+    EXPECT_EQ(s().features[k]->keyframe_id, k);
+    EXPECT_EQ(s().features[k]->robot, "robot_a");
+  }
+  ASSERT_TRUE(waitFor([this] { return s().trajectory && s().trajectory->poses.size() == 10; }, 10.0));
+  EXPECT_EQ(s().trajectory->header.frame_id, "robot_a/map");
+  EXPECT_NEAR(s().trajectory->poses.back().pose.position.x, 9.0, 1e-9);
+}
+
+TEST_F(Pipeline, FixedRateBrokerSendsEveryNthKeyframe) {
+  // pipeline.test sets broker mode fixed_rate with fixed_rate_every_n 2.
+  ASSERT_TRUE(waitFor([this] { return s().outbox_scans.size() >= 5; }, 10.0));
+  for (std::size_t n = 0; n < s().outbox_scans.size(); ++n) EXPECT_EQ(s().outbox_scans[n]->id, 2 * n);
+  ASSERT_TRUE(waitFor([this] { return s().broker_stats && s().broker_stats->keyframes == 10; }, 10.0));
+  EXPECT_EQ(s().broker_stats->mode, "fixed_rate");
+  EXPECT_EQ(s().broker_stats->scans_sent, 5u);
+  EXPECT_EQ(s().broker_stats->features_sent, 10u);
+  EXPECT_GT(s().broker_stats->scan_bytes_sent, 5u * 12000u);
+}
+
+TEST_F(Pipeline, BridgeReportsItsPeerLink) {
+  // 10 features + 5 scans reached the bridge; with no transport yet they are counted as dropped.
+  ASSERT_TRUE(waitFor([this] {
+    return s().link_stats && !s().link_stats->drop_counts.empty() &&
+           s().link_stats->drop_counts[0] == 15;
+  }, 10.0));
+  EXPECT_EQ(s().link_stats->robot, "robot_a");
+  EXPECT_EQ(s().link_stats->peer, "robot_b");
+  EXPECT_FALSE(s().link_stats->connected);
+  EXPECT_DOUBLE_EQ(s().link_stats->budget_bytes_per_s, 150000.0);
+}
+
+TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
+  const std::size_t before = s().keyframes.size();
+  const double x = s().keyframes.back()->odom_pose.position.x;
+
+  auto truncated = State::cloud("robot_a/velodyne", s().stamp(s().scan++));
+  truncated.data.resize(truncated.data.size() - 7);
+  s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(truncated));
+  s().publishOdometry(truncated.header.stamp, x + 5.0);
+  s().publishScanAt(x + 10.0, "no_such_frame");
+  s().publishOdometry(s().stamp(s().scan++), x + 11.0, "wrong_odom_frame");
+
+  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "dropping malformed cloud"); }, 10.0));
+  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "cannot place it"); }, 10.0));
+  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "dropping odometry in frames 'wrong_odom_frame'"); }, 10.0));
+  EXPECT_EQ(s().keyframes.size(), before) << "bad scans must not make keyframes";
+
+  // A good scan afterwards still makes the next keyframe.
+  s().publishScanAt(x + 12.0);
+  ASSERT_TRUE(waitFor([&] { return s().keyframes.size() == before + 1; }, 10.0));
+  EXPECT_EQ(s().keyframes.back()->id, before);
+}
+
+}  // namespace
+}  // namespace ccir_mapping
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "pipeline_check");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}
