@@ -1,0 +1,132 @@
+#!/usr/bin/python3
+"""Watches one robot's pipeline during the demo and writes what flowed through each nodelet.
+
+Sets /demo/ready once it is connected to the pipeline; after /demo/playback_done it waits for
+the last statistics, writes <out>/report.json and prints a summary.
+"""
+import argparse
+import json
+import math
+import time
+
+import rospy
+from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures
+from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Path
+
+
+class Report:
+    def __init__(self):
+        self.keyframes = []
+        self.features = 0
+        self.outbox_scans = []
+        self.trajectory = None
+        self.broker = None
+        self.flows = {}
+        self.levels = {}
+        self.updated_at = {}
+        self.subs = [
+            rospy.Subscriber("keyframes", Keyframe, self.on_keyframe, queue_size=100),
+            rospy.Subscriber("outbox/features", KeyframeFeatures, self.on_features, queue_size=100),
+            rospy.Subscriber("outbox/scans", Keyframe, self.on_scan, queue_size=100),
+            rospy.Subscriber("trajectory", Path, self.on_trajectory, queue_size=1),
+            rospy.Subscriber("broker_stats", BrokerStats, self.on_broker, queue_size=1),
+            rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20),
+        ]
+
+    def on_keyframe(self, msg):
+        p = msg.odom_pose.position
+        self.keyframes.append({"id": msg.id, "stamp": msg.header.stamp.to_sec(), "x": p.x, "y": p.y,
+                               "z": p.z, "points": msg.cloud.width * msg.cloud.height,
+                               "travelled_m": msg.travelled_m})
+
+    def on_features(self, msg):
+        self.features += 1
+
+    def on_scan(self, msg):
+        self.outbox_scans.append(msg.id)
+
+    def on_trajectory(self, msg):
+        self.trajectory = msg
+
+    def on_broker(self, msg):
+        self.broker = msg
+
+    def on_diagnostics(self, msg):
+        for status in msg.status:
+            nodelet = status.name.split(":")[0].split("/")[-1]
+            self.updated_at[nodelet] = time.monotonic()
+            self.levels[nodelet] = ord(status.level) if isinstance(status.level, bytes) else status.level
+            self.flows[nodelet] = {kv.key: int(kv.value) if kv.value.isdigit() else kv.value
+                                   for kv in status.values}
+
+    def connected(self):
+        return all(s.get_num_connections() > 0 for s in self.subs[:3])
+
+    def as_dict(self):
+        spacing = [math.dist((a["x"], a["y"]), (b["x"], b["y"]))
+                   for a, b in zip(self.keyframes, self.keyframes[1:])]
+        b = self.broker
+        return {
+            "keyframes": len(self.keyframes),
+            "keyframe_spacing_m": {"mean": sum(spacing) / len(spacing) if spacing else 0.0,
+                                   "min": min(spacing, default=0.0), "max": max(spacing, default=0.0)},
+            "features_to_outbox": self.features,
+            "scans_to_outbox": self.outbox_scans,
+            "trajectory_poses": len(self.trajectory.poses) if self.trajectory else 0,
+            "broker": None if b is None else {
+                "mode": b.mode, "keyframes": b.keyframes, "features_sent": b.features_sent,
+                "scans_sent": b.scans_sent, "scan_bytes_sent": b.scan_bytes_sent},
+            "nodelets": {name: {"level": self.levels[name], "flow": flow}
+                         for name, flow in sorted(self.flows.items())},
+            "keyframe_list": self.keyframes,
+        }
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--timeout-s", type=float, default=300.0)
+    args = parser.parse_args(rospy.myargv()[1:])
+    rospy.init_node("demo_report")
+    report = Report()
+    deadline = time.monotonic() + args.timeout_s
+    while not report.connected() and time.monotonic() < deadline and not rospy.is_shutdown():
+        time.sleep(0.05)
+    rospy.set_param("/demo/ready", True)
+    while not rospy.get_param("/demo/playback_done", False) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    # Diagnostics and broker statistics are periodic (1 s): wait until they cover every keyframe.
+    settle = time.monotonic() + 10.0
+    while time.monotonic() < settle:
+        flows = report.flows.get("broker", {})
+        if (report.broker and report.broker.keyframes == len(report.keyframes)
+                and flows.get("in keyframes messages") == len(report.keyframes)):
+            break
+        time.sleep(0.1)
+    # One more diagnostics report from every nodelet, so each one's last counts are in.
+    mark = time.monotonic()
+    while time.monotonic() < mark + 5.0 and not all(t > mark for t in report.updated_at.values()):
+        time.sleep(0.05)
+    result = report.as_dict()
+    with open(args.out + "/report.json", "w") as f:
+        json.dump(result, f, indent=2)
+
+    lines = ["what flowed through each nodelet (from their diagnostics):"]
+    for name, info in result["nodelets"].items():
+        flow = ", ".join("%s %s" % (k.replace(" messages", ""), v) for k, v in info["flow"].items()
+                         if k.endswith("messages"))
+        lines.append("  %-13s %s" % (name, flow or "-"))
+    sp = result["keyframe_spacing_m"]
+    lines.append("keyframes: %d (spacing %.2f m mean, %.2f..%.2f m); features to outbox: %d; "
+                 "scans to outbox: %d; trajectory poses: %d"
+                 % (result["keyframes"], sp["mean"], sp["min"], sp["max"],
+                    result["features_to_outbox"], len(result["scans_to_outbox"]),
+                    result["trajectory_poses"]))
+    with open(args.out + "/summary.txt", "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
