@@ -4,8 +4,8 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Path.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/LoopClosure.h"

@@ -3,8 +3,8 @@
 // reports each peer link; the TCP transport with its byte budget arrives with the transport core.
 #include <mutex>
 
-#include <pluginlib/class_list_macros.hpp>
 #include <topic_tools/shape_shifter.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/LinkStats.h"
 #include "ccir_mapping/ros/params.h"
@@ -23,7 +23,9 @@ class BridgeNodelet final : public PipelineNodelet {
       const std::string topic = forwarded.topic;
       subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
           topic, topics::kMessageQueueSize,
-          [this, topic](const topic_tools::ShapeShifter::ConstPtr& msg) { onOutbox(topic, *msg); }));
+          [this, topic](const topic_tools::ShapeShifter::ConstPtr& msg) {
+            onOutbox(topic, *msg);
+          }));
     }
     if (settings_.core.peers.empty()) {
       NODELET_INFO("no peers configured: outbox traffic is counted, not sent");

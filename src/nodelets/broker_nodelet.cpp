@@ -26,8 +26,8 @@ class BrokerNodelet final : public PipelineNodelet {
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
-    selector_ = std::make_unique<core::routing::FixedRateSelector>(
-        settings_.core.fixed_rate_every_n);
+    selector_ =
+        std::make_unique<core::routing::FixedRateSelector>(settings_.core.fixed_rate_every_n);
     stats_.robot = settings_.frames.robot_name;
 
     stats_pub_ = nh.advertise<BrokerStats>(topics::kBrokerStats, topics::kLatestOnlyQueueSize);
@@ -63,14 +63,13 @@ class BrokerNodelet final : public PipelineNodelet {
                                                 std::lock_guard<std::mutex> lock(mutex_);
                                                 ++stats_.receipts_received;
                                               }));
-    subs_.push_back(nh.subscribe<Keyframe>(topics::kInboxScans, topics::kKeyframeQueueSize,
-                                           [this](const Keyframe::ConstPtr& scan) {
-                                             count("in inbox/scans");
-                                             std::lock_guard<std::mutex> lock(mutex_);
-                                             ++stats_.scans_received;
-                                             stats_.scan_bytes_received +=
-                                                 ros::serialization::serializationLength(*scan);
-                                           }));
+    subs_.push_back(nh.subscribe<Keyframe>(
+        topics::kInboxScans, topics::kKeyframeQueueSize, [this](const Keyframe::ConstPtr& scan) {
+          count("in inbox/scans");
+          std::lock_guard<std::mutex> lock(mutex_);
+          ++stats_.scans_received;
+          stats_.scan_bytes_received += ros::serialization::serializationLength(*scan);
+        }));
 
     stats_timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.stats_period_s),
                                         &BrokerNodelet::onStatsTimer, this);

@@ -31,12 +31,13 @@ bool PipelineNodelet::reportSettings(const ros_params::ParamReader& reader,
   }
   if (config_errors_.empty()) NODELET_INFO("parameters: %s", reader.summary().c_str());
 
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(
-      getNodeHandle(), getPrivateNodeHandle(), getName());
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(getNodeHandle(),
+                                                               getPrivateNodeHandle(), getName());
   diagnostics_->setHardwareID(robot_name);
   diagnostics_->add("flow", this, &PipelineNodelet::produceDiagnostics);
   diagnostics_timer_ = getNodeHandle().createSteadyTimer(
-      ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { diagnostics_->force_update(); });
+      ros::WallDuration(1.0),
+      [this](const ros::SteadyTimerEvent&) { diagnostics_->force_update(); });
   return config_errors_.empty();
 }
 

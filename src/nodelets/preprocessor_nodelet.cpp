@@ -5,11 +5,11 @@
 
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Odometry.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/PreprocessorConfig.h"
@@ -55,7 +55,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
         msg->child_frame_id != settings_.frames.base_frame) {
       NODELET_WARN_THROTTLE(5.0, "dropping odometry in frames '%s' -> '%s': expected '%s' -> '%s'",
                             msg->header.frame_id.c_str(), msg->child_frame_id.c_str(),
-                            settings_.frames.odom_frame.c_str(), settings_.frames.base_frame.c_str());
+                            settings_.frames.odom_frame.c_str(),
+                            settings_.frames.base_frame.c_str());
       count("dropped odom");
       return;
     }
@@ -90,8 +91,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
       }
       if (sensor == settings_.frames.base_frame) return base;
       // The sensor mount is static: the latest transform is the right one.
-      return *base * tf2::transformToEigen(
-                         tf_buffer_.lookupTransform(settings_.frames.base_frame, sensor, ros::Time(0)));
+      return *base * tf2::transformToEigen(tf_buffer_.lookupTransform(settings_.frames.base_frame,
+                                                                      sensor, ros::Time(0)));
     } catch (const tf2::TransformException& e) {
       why = e.what();
       return std::nullopt;
@@ -108,7 +109,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
       return;
     }
     if (msg->header.frame_id.empty()) {
-      NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: empty frame_id", msg->header.stamp.toSec());
+      NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: empty frame_id",
+                            msg->header.stamp.toSec());
       count("dropped scans");
       return;
     }

@@ -20,9 +20,9 @@ void load(ParamReader& reader, RobotFrames& frames) {
   reader.read("map_frame", frames.map_frame);
   reader.read("odom_frame", frames.odom_frame);
   reader.read("base_frame", frames.base_frame);
-  for (const auto& [key, frame] : {std::pair{"map_frame", &frames.map_frame},
-                                   std::pair{"odom_frame", &frames.odom_frame},
-                                   std::pair{"base_frame", &frames.base_frame}}) {
+  for (const auto& [key, frame] :
+       {std::pair{"map_frame", &frames.map_frame}, std::pair{"odom_frame", &frames.odom_frame},
+        std::pair{"base_frame", &frames.base_frame}}) {
     if (frame->empty() || frame->front() == '/') {
       reader.addError(std::string(key) + " = '" + *frame +
                       "' is not allowed: allowed a non-empty frame id without a leading '/'");
@@ -31,8 +31,8 @@ void load(ParamReader& reader, RobotFrames& frames) {
 }
 
 // Reads a string field of one list entry; records an error naming "list[i].field".
-bool readEntryString(ParamReader& reader, const XmlRpc::XmlRpcValue& entry,
-                     const std::string& name, const std::string& field, std::string& out) {
+bool readEntryString(ParamReader& reader, const XmlRpc::XmlRpcValue& entry, const std::string& name,
+                     const std::string& field, std::string& out) {
   XmlRpc::XmlRpcValue copy = entry;
   if (!copy.hasMember(field) || copy[field].getType() != XmlRpc::XmlRpcValue::TypeString) {
     reader.addError(name + "." + field + " is missing or not a string");
@@ -168,8 +168,8 @@ void load(ParamReader& reader, BridgeSettings& config) {
     if (const auto parsed = core::transport::parsePriority(priority)) {
       topic.priority = *parsed;
     } else {
-      reader.addError(core::notOneOf(name + ".priority", priority,
-                                     core::transport::kPriorityChoices));
+      reader.addError(
+          core::notOneOf(name + ".priority", priority, core::transport::kPriorityChoices));
     }
     p.topics.push_back(topic);
   });

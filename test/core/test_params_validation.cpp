@@ -93,9 +93,8 @@ TEST(ParamsValidation, Broker) {
 
 TEST(ParamsValidation, BridgePeersAndTopics) {
   transport::BridgeParams p;
-  p.peers = {{"robot_b", "10.0.0.2", 17001},
-             {"robot_b", "10.0.0.3", 17001},
-             {"robot_a", "", 70000}};
+  p.peers = {
+      {"robot_b", "10.0.0.2", 17001}, {"robot_b", "10.0.0.3", 17001}, {"robot_a", "", 70000}};
   p.topics = {{"outbox/scans", transport::Priority::kBulk}, {"/tf", transport::Priority::kControl}};
   const auto errors = p.validate("robot_a");
   EXPECT_TRUE(mentions(errors, "peers[1].name = 'robot_b' appears twice"));

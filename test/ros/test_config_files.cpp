@@ -20,7 +20,8 @@ void expectValid(const std::string& file, const std::string& section, const YAML
   ParamReader reader(values, file + ":" + section);
   Settings settings;
   load(reader, settings);
-  for (const auto& error : reader.errors()) ADD_FAILURE() << file << ":" << section << ": " << error;
+  for (const auto& error : reader.errors())
+    ADD_FAILURE() << file << ":" << section << ": " << error;
   for (const auto& key : reader.unknownKeys()) {
     ADD_FAILURE() << file << ":" << section << ": unknown key " << key;
   }
@@ -44,13 +45,20 @@ TEST(ConfigFiles, EveryShippedYamlLoadsAndValidates) {
     for (const auto& item : root) {
       const std::string section = item.first.as<std::string>();
       const std::string file = path.filename().string();
-      if (section == "preprocessor") expectValid<PreprocessorSettings>(file, section, item.second);
-      else if (section == "matcher") expectValid<MatcherSettings>(file, section, item.second);
-      else if (section == "backend") expectValid<BackendSettings>(file, section, item.second);
-      else if (section == "mapper") expectValid<MapperSettings>(file, section, item.second);
-      else if (section == "broker") expectValid<BrokerSettings>(file, section, item.second);
-      else if (section == "bridge") expectValid<BridgeSettings>(file, section, item.second);
-      else ADD_FAILURE() << file << ": unknown section " << section;
+      if (section == "preprocessor")
+        expectValid<PreprocessorSettings>(file, section, item.second);
+      else if (section == "matcher")
+        expectValid<MatcherSettings>(file, section, item.second);
+      else if (section == "backend")
+        expectValid<BackendSettings>(file, section, item.second);
+      else if (section == "mapper")
+        expectValid<MapperSettings>(file, section, item.second);
+      else if (section == "broker")
+        expectValid<BrokerSettings>(file, section, item.second);
+      else if (section == "bridge")
+        expectValid<BridgeSettings>(file, section, item.second);
+      else
+        ADD_FAILURE() << file << ": unknown section " << section;
     }
   }
 }

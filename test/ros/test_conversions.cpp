@@ -13,12 +13,10 @@ namespace {
 sensor_msgs::PointCloud2 velodyneCloud(int points) {
   sensor_msgs::PointCloud2 cloud;
   sensor_msgs::PointCloud2Modifier modifier(cloud);
-  modifier.setPointCloud2Fields(6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
-                                sensor_msgs::PointField::FLOAT32, "z", 1,
-                                sensor_msgs::PointField::FLOAT32, "intensity", 1,
-                                sensor_msgs::PointField::FLOAT32, "ring", 1,
-                                sensor_msgs::PointField::UINT16, "time", 1,
-                                sensor_msgs::PointField::FLOAT32);
+  modifier.setPointCloud2Fields(
+      6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, "intensity", 1, sensor_msgs::PointField::FLOAT32, "ring", 1,
+      sensor_msgs::PointField::UINT16, "time", 1, sensor_msgs::PointField::FLOAT32);
   modifier.resize(points);
   return cloud;
 }

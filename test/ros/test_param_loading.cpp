@@ -9,9 +9,7 @@
 namespace ccir_mapping::ros_params {
 namespace {
 
-XmlRpc::XmlRpcValue params(const std::string& yaml) {
-  return testing::toXmlRpc(YAML::Load(yaml));
-}
+XmlRpc::XmlRpcValue params(const std::string& yaml) { return testing::toXmlRpc(YAML::Load(yaml)); }
 
 bool hasError(const ParamReader& reader, const std::string& start) {
   return std::any_of(reader.errors().begin(), reader.errors().end(),
@@ -56,7 +54,8 @@ TEST(ParamLoading, WrongTypesAreErrors) {
   ParamReader broker_reader{params("{fixed_rate_every_n: 2.5, mode: 3}")};
   BrokerSettings broker;
   load(broker_reader, broker);
-  EXPECT_TRUE(hasError(broker_reader, "fixed_rate_every_n has the wrong type: expected an integer"));
+  EXPECT_TRUE(
+      hasError(broker_reader, "fixed_rate_every_n has the wrong type: expected an integer"));
   EXPECT_TRUE(hasError(broker_reader, "mode has the wrong type: expected a string"));
 }
 
@@ -65,8 +64,9 @@ TEST(ParamLoading, UnknownChoiceListsTheAllowedOnes) {
   BackendSettings settings;
   load(reader, settings);
   ASSERT_EQ(reader.errors().size(), 1u);
-  EXPECT_EQ(reader.errors()[0],
-            "robust_kernel = 'tukey' is not allowed: allowed switchable | none | cauchy | huber | dcs");
+  EXPECT_EQ(
+      reader.errors()[0],
+      "robust_kernel = 'tukey' is not allowed: allowed switchable | none | cauchy | huber | dcs");
 }
 
 TEST(ParamLoading, InvalidRobotNameAndFrames) {

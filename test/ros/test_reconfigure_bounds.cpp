@@ -36,7 +36,6 @@ TEST(ReconfigureBounds, Preprocessor) {
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, keyframe_rotation_deg);
 }
 
-
 TEST(ReconfigureBounds, Broker) {
   using Core = core::routing::BrokerParams;
   CCIR_EXPECT_FIELD(Core, BrokerConfig, loop_closure_weight);

@@ -37,7 +37,8 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
       });
   auto fatal = [&](const std::string& text) {
     for (const auto& m : log) {
-      if (m->level == rosgraph_msgs::Log::FATAL && m->msg.find(text) != std::string::npos) return true;
+      if (m->level == rosgraph_msgs::Log::FATAL && m->msg.find(text) != std::string::npos)
+        return true;
     }
     return false;
   };
@@ -45,26 +46,33 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   // /rosout is not latched: load the nodelets only once this test hears the manager's log.
   ASSERT_TRUE(ros::service::waitForService("/manager/load_nodelet", ros::Duration(30.0)));
   ASSERT_TRUE(waitFor([&] { return log_sub.getNumPublishers() >= 2; }, 30.0))
-      << "not connected to the manager's /rosout (publishers: " << log_sub.getNumPublishers() << ")";
+      << "not connected to the manager's /rosout (publishers: " << log_sub.getNumPublishers()
+      << ")";
   for (const char* name : {"preprocessor", "bridge", "matcher"}) {
     nodelet::NodeletLoad load;
     load.request.name = std::string("/") + name;
-    load.request.type = std::string("ccir_mapping/") + static_cast<char>(std::toupper(name[0])) + (name + 1);
+    load.request.type =
+        std::string("ccir_mapping/") + static_cast<char>(std::toupper(name[0])) + (name + 1);
     ASSERT_TRUE(ros::service::call("/manager/load_nodelet", load)) << name;
     EXPECT_TRUE(load.response.success) << name;
   }
 
-  EXPECT_TRUE(waitFor([&] { return fatal("voxel_leaf_m = -1 is out of range: allowed [0.01, 5]"); }, 30.0));
-  EXPECT_TRUE(waitFor([&] { return fatal("peers[0].port = 99999 is out of range: allowed [1, 65535]"); }, 30.0));
+  EXPECT_TRUE(
+      waitFor([&] { return fatal("voxel_leaf_m = -1 is out of range: allowed [0.01, 5]"); }, 30.0));
+  EXPECT_TRUE(waitFor(
+      [&] { return fatal("peers[0].port = 99999 is out of range: allowed [1, 65535]"); }, 30.0));
   // Diagnostics say why the nodelets are inert (published a second after onInit returned).
-  ASSERT_TRUE(waitFor([&] {
-    return status.count("preprocessor: flow") && status.count("bridge: flow") &&
-           status.count("matcher: flow");
-  }, 30.0)) << [&] {
-    std::string names;
-    for (const auto& [name, s] : status) names += " '" + name + "'";
-    return "diagnostics seen:" + names;
-  }();
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return status.count("preprocessor: flow") && status.count("bridge: flow") &&
+               status.count("matcher: flow");
+      },
+      30.0))
+      << [&] {
+           std::string names;
+           for (const auto& [name, s] : status) names += " '" + name + "'";
+           return "diagnostics seen:" + names;
+         }();
   EXPECT_EQ(status["preprocessor: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["bridge: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["matcher: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);

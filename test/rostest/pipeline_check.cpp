@@ -47,13 +47,20 @@ class Pipeline : public ::testing::Test {
     double t0 = 1000.0;
 
     State() {
-      subs.push_back(nh.subscribe<Keyframe>("keyframes", 100, [this](const auto& m) { keyframes.push_back(m); }));
-      subs.push_back(nh.subscribe<KeyframeFeatures>("outbox/features", 100, [this](const auto& m) { features.push_back(m); }));
-      subs.push_back(nh.subscribe<Keyframe>("outbox/scans", 100, [this](const auto& m) { outbox_scans.push_back(m); }));
-      subs.push_back(nh.subscribe<nav_msgs::Path>("trajectory", 1, [this](const auto& m) { trajectory = m; }));
-      subs.push_back(nh.subscribe<BrokerStats>("broker_stats", 1, [this](const auto& m) { broker_stats = m; }));
-      subs.push_back(nh.subscribe<LinkStats>("link_stats", 10, [this](const auto& m) { link_stats = m; }));
-      subs.push_back(nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [this](const auto& m) { log.push_back(m); }));
+      subs.push_back(nh.subscribe<Keyframe>("keyframes", 100,
+                                            [this](const auto& m) { keyframes.push_back(m); }));
+      subs.push_back(nh.subscribe<KeyframeFeatures>(
+          "outbox/features", 100, [this](const auto& m) { features.push_back(m); }));
+      subs.push_back(nh.subscribe<Keyframe>("outbox/scans", 100,
+                                            [this](const auto& m) { outbox_scans.push_back(m); }));
+      subs.push_back(
+          nh.subscribe<nav_msgs::Path>("trajectory", 1, [this](const auto& m) { trajectory = m; }));
+      subs.push_back(nh.subscribe<BrokerStats>("broker_stats", 1,
+                                               [this](const auto& m) { broker_stats = m; }));
+      subs.push_back(
+          nh.subscribe<LinkStats>("link_stats", 10, [this](const auto& m) { link_stats = m; }));
+      subs.push_back(nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
+                                                      [this](const auto& m) { log.push_back(m); }));
 
       geometry_msgs::TransformStamped mount;
       mount.header.frame_id = "robot_a/base_link";
@@ -62,11 +69,14 @@ class Pipeline : public ::testing::Test {
       mount.transform.rotation.w = 1.0;
       static_tf.sendTransform(mount);
 
-      EXPECT_TRUE(waitFor([this] {
-        return cloud_pub.getNumSubscribers() > 0 && odom_pub.getNumSubscribers() > 0 &&
-               subs[0].getNumPublishers() > 0 && subs[1].getNumPublishers() > 0 &&
-               subs[2].getNumPublishers() > 0;
-      }, 30.0)) << "the pipeline did not come up";
+      EXPECT_TRUE(waitFor(
+          [this] {
+            return cloud_pub.getNumSubscribers() > 0 && odom_pub.getNumSubscribers() > 0 &&
+                   subs[0].getNumPublishers() > 0 && subs[1].getNumPublishers() > 0 &&
+                   subs[2].getNumPublishers() > 0;
+          },
+          30.0))
+          << "the pipeline did not come up";
     }
 
     ros::Time stamp(int i) const { return ros::Time(t0 + 0.1 * i); }
@@ -119,15 +129,19 @@ Pipeline::State* Pipeline::instance_ = nullptr;
 TEST_F(Pipeline, KeyframesFollowOdometryDistance) {
   // Keyframe 0 needs the sensor mount from /tf_static: repeat the first pose until it is made.
   int polls = 0;
-  ASSERT_TRUE(waitFor([&] {
-    if (s().keyframes.empty() && polls++ % 20 == 0) s().publishScanAt(0.0);
-    return !s().keyframes.empty();
-  }, 30.0)) << "no first keyframe";
+  ASSERT_TRUE(waitFor(
+      [&] {
+        if (s().keyframes.empty() && polls++ % 20 == 0) s().publishScanAt(0.0);
+        return !s().keyframes.empty();
+      },
+      30.0))
+      << "no first keyframe";
   // Then scans every 0.5 m: every second one is a keyframe (keyframe_distance_m = 1).
   for (int k = 1; k < 10; ++k) {
     s().publishScanAt(k - kStepM);
     s().publishScanAt(k);
-    ASSERT_TRUE(waitFor([&] { return s().keyframes.size() == static_cast<std::size_t>(k) + 1; }, 10.0))
+    ASSERT_TRUE(
+        waitFor([&] { return s().keyframes.size() == static_cast<std::size_t>(k) + 1; }, 10.0))
         << "keyframe " << k << " did not arrive";
   }
   ASSERT_EQ(s().keyframes.size(), 10u);
@@ -150,7 +164,8 @@ TEST_F(Pipeline, FeaturesAndTrajectoryFollowKeyframes) {
     EXPECT_EQ(s().features[k]->keyframe_id, k);
     EXPECT_EQ(s().features[k]->robot, "robot_a");
   }
-  ASSERT_TRUE(waitFor([this] { return s().trajectory && s().trajectory->poses.size() == 10; }, 10.0));
+  ASSERT_TRUE(
+      waitFor([this] { return s().trajectory && s().trajectory->poses.size() == 10; }, 10.0));
   EXPECT_EQ(s().trajectory->header.frame_id, "robot_a/map");
   EXPECT_NEAR(s().trajectory->poses.back().pose.position.x, 9.0, 1e-9);
 }
@@ -158,8 +173,10 @@ TEST_F(Pipeline, FeaturesAndTrajectoryFollowKeyframes) {
 TEST_F(Pipeline, FixedRateBrokerSendsEveryNthKeyframe) {
   // pipeline.test sets broker mode fixed_rate with fixed_rate_every_n 2.
   ASSERT_TRUE(waitFor([this] { return s().outbox_scans.size() >= 5; }, 10.0));
-  for (std::size_t n = 0; n < s().outbox_scans.size(); ++n) EXPECT_EQ(s().outbox_scans[n]->id, 2 * n);
-  ASSERT_TRUE(waitFor([this] { return s().broker_stats && s().broker_stats->keyframes == 10; }, 10.0));
+  for (std::size_t n = 0; n < s().outbox_scans.size(); ++n)
+    EXPECT_EQ(s().outbox_scans[n]->id, 2 * n);
+  ASSERT_TRUE(
+      waitFor([this] { return s().broker_stats && s().broker_stats->keyframes == 10; }, 10.0));
   EXPECT_EQ(s().broker_stats->mode, "fixed_rate");
   EXPECT_EQ(s().broker_stats->scans_sent, 5u);
   EXPECT_EQ(s().broker_stats->features_sent, 10u);
@@ -168,10 +185,12 @@ TEST_F(Pipeline, FixedRateBrokerSendsEveryNthKeyframe) {
 
 TEST_F(Pipeline, BridgeReportsItsPeerLink) {
   // 10 features + 5 scans reached the bridge; with no transport yet they are counted as dropped.
-  ASSERT_TRUE(waitFor([this] {
-    return s().link_stats && !s().link_stats->drop_counts.empty() &&
-           s().link_stats->drop_counts[0] == 15;
-  }, 10.0));
+  ASSERT_TRUE(waitFor(
+      [this] {
+        return s().link_stats && !s().link_stats->drop_counts.empty() &&
+               s().link_stats->drop_counts[0] == 15;
+      },
+      10.0));
   EXPECT_EQ(s().link_stats->robot, "robot_a");
   EXPECT_EQ(s().link_stats->peer, "robot_b");
   EXPECT_FALSE(s().link_stats->connected);
@@ -189,9 +208,16 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   s().publishScanAt(x + 10.0, "no_such_frame");
   s().publishOdometry(s().stamp(s().scan++), x + 11.0, "wrong_odom_frame");
 
-  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "dropping malformed cloud"); }, 10.0));
-  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "cannot place it"); }, 10.0));
-  EXPECT_TRUE(waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "dropping odometry in frames 'wrong_odom_frame'"); }, 10.0));
+  EXPECT_TRUE(waitFor(
+      [this] { return s().logged(rosgraph_msgs::Log::WARN, "dropping malformed cloud"); }, 10.0));
+  EXPECT_TRUE(
+      waitFor([this] { return s().logged(rosgraph_msgs::Log::WARN, "cannot place it"); }, 10.0));
+  EXPECT_TRUE(waitFor(
+      [this] {
+        return s().logged(rosgraph_msgs::Log::WARN,
+                          "dropping odometry in frames 'wrong_odom_frame'");
+      },
+      10.0));
   EXPECT_EQ(s().keyframes.size(), before) << "bad scans must not make keyframes";
 
   // A good scan afterwards still makes the next keyframe.

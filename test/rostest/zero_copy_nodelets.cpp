@@ -7,11 +7,11 @@
 #include <cstdio>
 
 #include <nodelet/nodelet.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <std_msgs/String.h>
+#include <pluginlib/class_list_macros.hpp>
 
 namespace ccir_mapping_test {
 
@@ -19,8 +19,8 @@ class CloudSource final : public nodelet::Nodelet {
  private:
   void onInit() override {
     pub_ = getNodeHandle().advertise<sensor_msgs::PointCloud2>("cloud", 10);
-    timer_ = getNodeHandle().createSteadyTimer(ros::WallDuration(0.05),
-                                               &CloudSource::publish, this);
+    timer_ =
+        getNodeHandle().createSteadyTimer(ros::WallDuration(0.05), &CloudSource::publish, this);
   }
 
   void publish(const ros::SteadyTimerEvent&) {
@@ -51,9 +51,9 @@ class CloudProbe final : public nodelet::Nodelet {
     std::uintptr_t address = 0;
     if (std::sscanf(cloud->header.frame_id.c_str(), "%d:%" SCNxPTR, &pid, &address) != 2) return;
     auto report = boost::make_shared<std_msgs::String>();
-    report->data = std::string(pid == getpid() ? "same_process" : "other_process") + " " +
-                   (address == reinterpret_cast<std::uintptr_t>(cloud.get()) ? "same_address"
-                                                                              : "copy");
+    report->data =
+        std::string(pid == getpid() ? "same_process" : "other_process") + " " +
+        (address == reinterpret_cast<std::uintptr_t>(cloud.get()) ? "same_address" : "copy");
     report_pub_.publish(report);
   }
 

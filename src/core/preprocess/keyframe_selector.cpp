@@ -19,7 +19,8 @@ KeyframeSelector::Decision KeyframeSelector::offer(Stamp stamp, const Pose3& odo
 
   decision.travelled_m = travelled_m_;
   decision.rotated_rad =
-      first ? 0.0 : Eigen::AngleAxisd(keyframe_pose_.linear().transpose() * odom_pose.linear()).angle();
+      first ? 0.0
+            : Eigen::AngleAxisd(keyframe_pose_.linear().transpose() * odom_pose.linear()).angle();
   if (!first && decision.travelled_m < params_.distance_m &&
       decision.rotated_rad < params_.rotation_rad) {
     decision.outcome = Outcome::kSkipped;

@@ -28,7 +28,8 @@ std::optional<Pose3> OdometryBuffer::at(Stamp stamp, double tolerance_s) const {
     const Sample& b = *after;
     // Interpolate only across gaps an odometry source really leaves (at most 2 tolerances).
     if (b.stamp - a.stamp <= 2 * tolerance) {
-      const double s = static_cast<double>(stamp - a.stamp) / static_cast<double>(b.stamp - a.stamp);
+      const double s =
+          static_cast<double>(stamp - a.stamp) / static_cast<double>(b.stamp - a.stamp);
       Pose3 pose = Pose3::Identity();
       pose.translation() = (1.0 - s) * a.pose.translation() + s * b.pose.translation();
       pose.linear() = Eigen::Quaterniond(a.pose.linear())

@@ -31,8 +31,8 @@ std::vector<std::string> BridgeParams::validate(const std::string& own_robot_nam
     const PeerConfig& peer = peers[i];
     const std::string prefix = "peers[" + std::to_string(i) + "].";
     check.robotName(prefix + "name", peer.name);
-    check.require(peer.name != own_robot_name, prefix + "name = '" + peer.name +
-                                                   "' is this robot's own name");
+    check.require(peer.name != own_robot_name,
+                  prefix + "name = '" + peer.name + "' is this robot's own name");
     check.require(names.insert(peer.name).second,
                   prefix + "name = '" + peer.name + "' appears twice");
     check.require(!peer.host.empty(), prefix + "host is empty");
@@ -41,8 +41,9 @@ std::vector<std::string> BridgeParams::validate(const std::string& own_robot_nam
   for (std::size_t i = 0; i < topics.size(); ++i) {
     const std::string& topic = topics[i].topic;
     const std::string name = "topics[" + std::to_string(i) + "].topic";
-    check.require(topic.rfind("outbox/", 0) == 0 && topic.size() > 7,
-                  name + " = '" + topic + "' is not allowed: allowed relative topics under outbox/");
+    check.require(
+        topic.rfind("outbox/", 0) == 0 && topic.size() > 7,
+        name + " = '" + topic + "' is not allowed: allowed relative topics under outbox/");
   }
   return check.errors();
 }

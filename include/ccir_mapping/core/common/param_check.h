@@ -28,7 +28,8 @@ class ParamCheck {
   std::vector<std::string> errors_;
 };
 
-/// The message a loader reports for a value that is not one of `choices` (e.g. "ccir | fixed_rate").
+/// The message a loader reports for a value that is not one of `choices` (e.g. "ccir |
+/// fixed_rate").
 std::string notOneOf(std::string_view name, std::string_view value, std::string_view choices);
 
 /// True for a name usable as a robot name and frame prefix ("robot_a").
