@@ -32,6 +32,10 @@ class Pipeline : public ::testing::Test {
 
   struct State {
     ros::NodeHandle nh;
+    // The robot under test and its configured peer (~robot, ~peer), so the same check runs in
+    // the root namespace and inside a robot's namespace.
+    std::string robot = ros::NodeHandle("~").param<std::string>("robot", "robot_a");
+    std::string peer = ros::NodeHandle("~").param<std::string>("peer", "robot_b");
     ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("velodyne_points", 10);
     ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
     tf2_ros::StaticTransformBroadcaster static_tf;
@@ -63,8 +67,8 @@ class Pipeline : public ::testing::Test {
                                                       [this](const auto& m) { log.push_back(m); }));
 
       geometry_msgs::TransformStamped mount;
-      mount.header.frame_id = "robot_a/base_link";
-      mount.child_frame_id = "robot_a/velodyne";
+      mount.header.frame_id = robot + "/base_link";
+      mount.child_frame_id = robot + "/velodyne";
       mount.transform.translation.z = kSensorHeightM;
       mount.transform.rotation.w = 1.0;
       static_tf.sendTransform(mount);
@@ -97,26 +101,32 @@ class Pipeline : public ::testing::Test {
       return c;
     }
 
-    void publishOdometry(ros::Time stamp, double x, const std::string& frame = "robot_a/odom") {
+    void publishOdometry(ros::Time stamp, double x, std::string frame = "") {
+      if (frame.empty()) frame = robot + "/odom";
       auto odom = boost::make_shared<nav_msgs::Odometry>();
       odom->header.stamp = stamp;
       odom->header.frame_id = frame;
-      odom->child_frame_id = "robot_a/base_link";
+      odom->child_frame_id = robot + "/base_link";
       odom->pose.pose.position.x = x;
       odom->pose.pose.orientation.w = 1.0;
       odom_pub.publish(odom);
     }
 
     // Publishes a scan at odometry x (cloud first, odometry after it, as drivers often do).
-    void publishScanAt(double x, const std::string& frame = "robot_a/velodyne") {
+    void publishScanAt(double x, std::string frame = "") {
+      if (frame.empty()) frame = robot + "/velodyne";
       const ros::Time t = stamp(scan++);
       cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(cloud(frame, t)));
       publishOdometry(t, x);
     }
 
     bool logged(uint8_t level, const std::string& text) const {
+      // Only this robot's manager ("/robot_a_manager" or "/robot_a/robot_a_manager").
       for (const auto& entry : log) {
-        if (entry->level == level && entry->msg.find(text) != std::string::npos) return true;
+        if (entry->level == level && entry->name.rfind("/" + robot, 0) == 0 &&
+            entry->msg.find(text) != std::string::npos) {
+          return true;
+        }
       }
       return false;
     }
@@ -148,9 +158,9 @@ TEST_F(Pipeline, KeyframesFollowOdometryDistance) {
   for (std::size_t k = 0; k < s().keyframes.size(); ++k) {
     const Keyframe& kf = *s().keyframes[k];
     EXPECT_EQ(kf.id, k);
-    EXPECT_EQ(kf.robot, "robot_a");
-    EXPECT_EQ(kf.header.frame_id, "robot_a/velodyne");
-    EXPECT_EQ(kf.odom_frame, "robot_a/odom");
+    EXPECT_EQ(kf.robot, s().robot);
+    EXPECT_EQ(kf.header.frame_id, s().robot + "/velodyne");
+    EXPECT_EQ(kf.odom_frame, s().robot + "/odom");
     EXPECT_NEAR(kf.odom_pose.position.x, 1.0 * k, 1e-9);
     EXPECT_NEAR(kf.odom_pose.position.z, kSensorHeightM, 1e-9);  // the sensor mount is applied
     EXPECT_NEAR(kf.travelled_m, k == 0 ? 0.0 : 1.0, 1e-6);
@@ -162,11 +172,11 @@ TEST_F(Pipeline, FeaturesAndTrajectoryFollowKeyframes) {
   ASSERT_TRUE(waitFor([this] { return s().features.size() >= 10; }, 10.0));
   for (std::size_t k = 0; k < 10; ++k) {
     EXPECT_EQ(s().features[k]->keyframe_id, k);
-    EXPECT_EQ(s().features[k]->robot, "robot_a");
+    EXPECT_EQ(s().features[k]->robot, s().robot);
   }
   ASSERT_TRUE(
       waitFor([this] { return s().trajectory && s().trajectory->poses.size() == 10; }, 10.0));
-  EXPECT_EQ(s().trajectory->header.frame_id, "robot_a/map");
+  EXPECT_EQ(s().trajectory->header.frame_id, s().robot + "/map");
   EXPECT_NEAR(s().trajectory->poses.back().pose.position.x, 9.0, 1e-9);
 }
 
@@ -191,8 +201,8 @@ TEST_F(Pipeline, BridgeReportsItsPeerLink) {
                s().link_stats->drop_counts[0] == 15;
       },
       10.0));
-  EXPECT_EQ(s().link_stats->robot, "robot_a");
-  EXPECT_EQ(s().link_stats->peer, "robot_b");
+  EXPECT_EQ(s().link_stats->robot, s().robot);
+  EXPECT_EQ(s().link_stats->peer, s().peer);
   EXPECT_FALSE(s().link_stats->connected);
   EXPECT_DOUBLE_EQ(s().link_stats->budget_bytes_per_s, 150000.0);
 }
@@ -201,7 +211,7 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   const std::size_t before = s().keyframes.size();
   const double x = s().keyframes.back()->odom_pose.position.x;
 
-  auto truncated = State::cloud("robot_a/velodyne", s().stamp(s().scan++));
+  auto truncated = State::cloud(s().robot + "/velodyne", s().stamp(s().scan++));
   truncated.data.resize(truncated.data.size() - 7);
   s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(truncated));
   s().publishOdometry(truncated.header.stamp, x + 5.0);
