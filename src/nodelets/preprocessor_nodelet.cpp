@@ -1,6 +1,5 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Thin: checks input, places each scan
 // with odometry, lets the core decide keyframes, publishes them zero-copy.
-#include <deque>
 #include <mutex>
 
 #include <dynamic_reconfigure/server.h>
@@ -15,6 +14,7 @@
 #include "ccir_mapping/PreprocessorConfig.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
@@ -38,6 +38,14 @@ class PreprocessorNodelet final : public PipelineNodelet {
     }
     cloud_sub_ = nh.subscribe(topics::kVelodynePoints, topics::kSensorQueueSize,
                               &PreprocessorNodelet::onCloud, this);
+    if (settings_.odom_source == "tf") {
+      // tf arrives on the listener's own thread: look again for scans it can now place.
+      // (tf2_ros::MessageFilter would wait too, but stalled scans in this pipeline's tests.)
+      tf_poll_timer_ = nh.createSteadyTimer(ros::WallDuration(0.02), [this](const auto&) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        drainPending();
+      });
+    }
 
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<PreprocessorConfig>>(
         reconfigure_mutex_, getPrivateNodeHandle());
@@ -68,11 +76,44 @@ class PreprocessorNodelet final : public PipelineNodelet {
       count("dropped odom");
       return;
     }
-    // Scans wait until odometry at or after their stamp has arrived.
-    while (!pending_.empty() && pending_.front()->header.stamp <= msg->header.stamp) {
-      process(pending_.front());
-      pending_.pop_front();
+    drainPending();
+  }
+
+  // True once what places the scan has arrived: tf from the sensor frame to the odom frame at
+  // its stamp, or odometry at or after its stamp plus the sensor mount. Otherwise says why in
+  // `why` (when given). Holds mutex_.
+  bool placeable(const sensor_msgs::PointCloud2& cloud, std::string* why = nullptr) {
+    const std::string& sensor = cloud.header.frame_id;
+    if (settings_.odom_source == "tf") {
+      return tf_buffer_.canTransform(settings_.frames.odom_frame, sensor, cloud.header.stamp, why);
     }
+    const auto newest = odometry_.newestStamp();
+    if (!newest || conversions::toStamp(cloud.header.stamp) > *newest) {
+      if (why) {
+        *why = "no odometry at or after its stamp on '" +
+               getNodeHandle().resolveName(topics::kOdometry) + "'";
+      }
+      return false;
+    }
+    return sensor == settings_.frames.base_frame ||
+           tf_buffer_.canTransform(settings_.frames.base_frame, sensor, ros::Time(0), why);
+  }
+
+  // Places every scan that can be placed now, in order. Holds mutex_.
+  void drainPending() {
+    pending_.drain(
+        [this](const auto& cloud) { return placeable(*cloud); },
+        [this](const auto& cloud) { process(cloud); },
+        [this](const auto& cloud) { dropUnplaceable(*cloud, "a later scan was placed first"); });
+  }
+
+  void dropUnplaceable(const sensor_msgs::PointCloud2& cloud, const char* context) {
+    std::string why;
+    placeable(cloud, &why);
+    NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f in frame '%s': cannot place it (%s): %s",
+                          cloud.header.stamp.toSec(), cloud.header.frame_id.c_str(), context,
+                          why.c_str());
+    count("dropped scans");
   }
 
   // Pose of the sensor frame in the odom frame at the scan stamp, or an explanation.
@@ -115,20 +156,19 @@ class PreprocessorNodelet final : public PipelineNodelet {
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    if (settings_.odom_source == "tf") return process(msg);
-    const auto newest = odometry_.newestStamp();
-    if (newest && conversions::toStamp(msg->header.stamp) <= *newest) return process(msg);
-    pending_.push_back(msg);
-    if (pending_.size() > kMaxPendingScans) {
+    if (last_queued_stamp_ && msg->header.stamp <= *last_queued_stamp_) {
       NODELET_WARN_THROTTLE(5.0,
-                            "dropping cloud at %.3f: no odometry at or after its stamp on '%s' "
-                            "(newest odometry: %s)",
-                            pending_.front()->header.stamp.toSec(),
-                            getNodeHandle().resolveName(topics::kOdometry).c_str(),
-                            newest ? std::to_string(core::toSeconds(*newest)).c_str() : "none");
-      pending_.pop_front();
+                            "dropping cloud at %.3f: stamp not after the previous scan (a bag "
+                            "replayed again? restart the pipeline)",
+                            msg->header.stamp.toSec());
       count("dropped scans");
+      return;
     }
+    last_queued_stamp_ = msg->header.stamp;
+    if (const auto pushed_out = pending_.push(msg)) {
+      dropUnplaceable(**pushed_out, "waited too long");
+    }
+    drainPending();
   }
 
   // Places a checked scan with odometry and publishes it if it makes a keyframe. Holds mutex_.
@@ -206,7 +246,9 @@ class PreprocessorNodelet final : public PipelineNodelet {
 
   ros_params::PreprocessorSettings settings_;
   std::mutex mutex_;  // guards everything below that callbacks touch
-  std::deque<sensor_msgs::PointCloud2::ConstPtr> pending_;
+  // Scans waiting for odometry or tf, in stamp order.
+  core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> pending_{kMaxPendingScans};
+  std::optional<ros::Time> last_queued_stamp_;
   std::unique_ptr<KeyframeSelector> selector_;
   core::preprocess::OdometryBuffer odometry_;
   tf2_ros::Buffer tf_buffer_;
@@ -214,6 +256,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
   ros::Publisher keyframe_pub_;
   ros::Subscriber odom_sub_;
   ros::Subscriber cloud_sub_;
+  ros::SteadyTimer tf_poll_timer_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<PreprocessorConfig>> reconfigure_;
 };
