@@ -36,16 +36,16 @@ class BridgeNodelet final : public PipelineNodelet {
 
   void onOutbox(const std::string& topic, const topic_tools::ShapeShifter& msg) {
     count("in " + topic, msg.size());
+    // No transport yet: every message is dropped for every peer.
     std::lock_guard<std::mutex> lock(mutex_);
-    // No transport yet: every message is dropped for every peer, and counted as such.
-    not_connected_drops_ += settings_.core.peers.size();
+    ++not_sent_;
   }
 
   void onStatsTimer(const ros::SteadyTimerEvent&) {
-    std::uint64_t drops = 0;
+    std::uint64_t not_sent = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      drops = not_connected_drops_;
+      not_sent = not_sent_;
     }
     for (const auto& peer : settings_.core.peers) {
       auto stats = boost::make_shared<LinkStats>();
@@ -55,14 +55,14 @@ class BridgeNodelet final : public PipelineNodelet {
       stats->address = peer.host + ":" + std::to_string(peer.port);
       stats->budget_bytes_per_s = settings_.core.budget_bytes_per_s;
       stats->drop_reasons = {"not_connected"};
-      stats->drop_counts = {drops / settings_.core.peers.size()};
+      stats->drop_counts = {not_sent};
       stats_pub_.publish(stats);
     }
   }
 
   ros_params::BridgeSettings settings_;
   std::mutex mutex_;
-  std::uint64_t not_connected_drops_ = 0;
+  std::uint64_t not_sent_ = 0;  // outbox messages no peer received
   ros::Publisher stats_pub_;
   std::vector<ros::Subscriber> subs_;
   ros::SteadyTimer stats_timer_;

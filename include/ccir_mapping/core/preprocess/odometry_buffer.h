@@ -1,4 +1,5 @@
-// A short history of odometry poses, queried at scan stamps.
+// A short history of odometry poses, queried at scan stamps. Written here rather than taken from
+// tf2::BufferCore, which does the same interpolation but takes ROS message types.
 #pragma once
 
 #include <deque>
