@@ -2,6 +2,7 @@
 // n-th keyframe; CCIR offer/request routing arrives with the routing core. Both forward the
 // local word sets to the outbox.
 #include <mutex>
+#include <sstream>
 
 #include <dynamic_reconfigure/server.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -133,6 +134,16 @@ class BrokerNodelet final : public PipelineNodelet {
       config.fixed_rate_every_n = settings_.core.fixed_rate_every_n;
       return;
     }
+    std::ostringstream changes;
+    noteChange(changes, "loop_closure_weight", settings_.core.loop_closure_weight,
+               candidate.loop_closure_weight);
+    noteChange(changes, "unknown_transform_factor", settings_.core.unknown_transform_factor,
+               candidate.unknown_transform_factor);
+    noteChange(changes, "budget_bytes_per_s", settings_.core.budget_bytes_per_s,
+               candidate.budget_bytes_per_s);
+    noteChange(changes, "fixed_rate_every_n", settings_.core.fixed_rate_every_n,
+               candidate.fixed_rate_every_n);
+    if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
     settings_.core = candidate;
     selector_->setEveryN(candidate.fixed_rate_every_n);
   }

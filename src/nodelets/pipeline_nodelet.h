@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,12 @@ class PipelineNodelet : public nodelet::Nodelet {
     ros_params::ParamReader reader(privateParams(), getPrivateNodeHandle().getNamespace());
     load(reader, settings);
     return reportSettings(reader, settings.frames.robot_name);
+  }
+
+  /// Appends " name before -> after" to `changes` when a reconfigured value changed.
+  template <class T>
+  static void noteChange(std::ostream& changes, const char* name, const T& before, const T& after) {
+    if (before != after) changes << " " << name << " " << before << " -> " << after;
   }
 
   /// Counts messages (and bytes) that passed through a named input or output.

@@ -1,6 +1,7 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Thin: checks input, places each scan
 // with odometry, lets the core decide keyframes, publishes them zero-copy.
 #include <mutex>
+#include <sstream>
 
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Odometry.h>
@@ -237,6 +238,15 @@ class PreprocessorNodelet final : public PipelineNodelet {
       config.keyframe_rotation_deg = settings_.core.keyframe_rotation_deg;
       return;
     }
+    std::ostringstream changes;
+    noteChange(changes, "min_range_m", settings_.core.min_range_m, candidate.min_range_m);
+    noteChange(changes, "max_range_m", settings_.core.max_range_m, candidate.max_range_m);
+    noteChange(changes, "voxel_leaf_m", settings_.core.voxel_leaf_m, candidate.voxel_leaf_m);
+    noteChange(changes, "keyframe_distance_m", settings_.core.keyframe_distance_m,
+               candidate.keyframe_distance_m);
+    noteChange(changes, "keyframe_rotation_deg", settings_.core.keyframe_rotation_deg,
+               candidate.keyframe_rotation_deg);
+    if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
     settings_.core = candidate;
     selector_->setParams(selectorParams(candidate));
   }

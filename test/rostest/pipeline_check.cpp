@@ -2,6 +2,9 @@
 // flows out of each nodelet, including how bad input is dropped without stopping the pipeline.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
@@ -251,6 +254,47 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   EXPECT_EQ(s().keyframes.size(), before + 1);
   EXPECT_NEAR(s().keyframes.back()->odom_pose.position.x, x + 12.0, 1e-9);
   EXPECT_EQ(s().keyframes.back()->id, before);
+}
+
+// Changes a Preprocessor parameter at run time; returns the value the server reports back.
+double reconfigure(const std::string& name, double value) {
+  dynamic_reconfigure::Reconfigure srv;
+  dynamic_reconfigure::DoubleParameter param;
+  param.name = name;
+  param.value = value;
+  srv.request.config.doubles.push_back(param);
+  EXPECT_TRUE(ros::service::call("preprocessor/set_parameters", srv)) << name;
+  for (const auto& reported : srv.response.config.doubles) {
+    if (reported.name == name) return reported.value;
+  }
+  ADD_FAILURE() << name << " missing from the reply";
+  return std::nan("");
+}
+
+// Last: it changes the pipeline's configuration.
+TEST_F(Pipeline, ReconfigureAppliesValidChangesAndRefusesInvalidOnes) {
+  // max_range_m is within its own bounds but below min_range_m (0.5): refused, value kept.
+  EXPECT_DOUBLE_EQ(reconfigure("max_range_m", 0.3), 100.0);
+  EXPECT_TRUE(waitFor(
+      [this] {
+        return s().logged(rosgraph_msgs::Log::ERROR,
+                          "reconfigure rejected: max_range_m must be greater than min_range_m");
+      },
+      10.0));
+
+  EXPECT_DOUBLE_EQ(reconfigure("keyframe_distance_m", 2.0), 2.0);
+  // Scans every 0.5 m now make a keyframe every fourth scan.
+  const std::size_t before = s().keyframes.size();
+  const double x = s().keyframes.back()->odom_pose.position.x;
+  for (int i = 1; i <= 8; ++i) {
+    s().publishScanAt(x + kStepM * i);
+    if (i % 4 == 0) {
+      ASSERT_TRUE(waitFor([&] { return s().keyframes.size() == before + i / 4; }, 10.0)) << i;
+    }
+  }
+  EXPECT_EQ(s().keyframes.size(), before + 2);
+  EXPECT_NEAR(s().keyframes.back()->odom_pose.position.x, x + 4.0, 1e-9);
+  EXPECT_NEAR(s().keyframes.back()->travelled_m, 2.0, 1e-6);
 }
 
 }  // namespace
