@@ -1,6 +1,8 @@
 #include "ccir_mapping/ros/conversions.h"
 
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <string_view>
 
 #include <sensor_msgs/PointField.h>
@@ -55,6 +57,57 @@ std::optional<core::Pose3> toPose(const geometry_msgs::Transform& transform) {
 }
 
 geometry_msgs::Pose toPoseMsg(const core::Pose3& pose) { return tf2::toMsg(pose); }
+
+geometry_msgs::Transform toTransformMsg(const core::Pose3& pose) {
+  return tf2::eigenToTransform(pose).transform;
+}
+
+void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& frame,
+                   sensor_msgs::PointCloud2* cloud) {
+  using sensor_msgs::PointField;
+  constexpr std::uint32_t kPointStep = 22;
+  cloud->header.stamp = toRosTime(scan.stamp);
+  cloud->header.frame_id = frame;
+  struct FieldSpec {
+    const char* name;
+    std::uint32_t offset;
+    std::uint8_t datatype;
+  };
+  static constexpr FieldSpec kLayout[] = {
+      {"x", 0, PointField::FLOAT32},    {"y", 4, PointField::FLOAT32},
+      {"z", 8, PointField::FLOAT32},    {"intensity", 12, PointField::FLOAT32},
+      {"ring", 16, PointField::UINT16}, {"time", 18, PointField::FLOAT32}};
+  cloud->fields.clear();
+  for (const auto& spec : kLayout) {
+    PointField field;
+    field.name = spec.name;
+    field.offset = spec.offset;
+    field.datatype = spec.datatype;
+    field.count = 1;
+    cloud->fields.push_back(field);
+  }
+  const auto count = static_cast<std::uint32_t>(scan.points.size());
+  if (scan.organized && scan.columns > 0) {
+    cloud->height = core::simulation::LidarModel::kRings;
+    cloud->width = static_cast<std::uint32_t>(scan.columns);
+  } else {
+    cloud->height = 1;
+    cloud->width = count;
+  }
+  cloud->is_bigendian = false;
+  cloud->point_step = kPointStep;
+  cloud->row_step = kPointStep * cloud->width;
+  cloud->is_dense = !scan.organized;
+  cloud->data.resize(std::size_t{kPointStep} * count);
+  static_assert(offsetof(core::simulation::LidarPoint, intensity) == 12);
+  std::uint8_t* out = cloud->data.data();
+  for (const auto& p : scan.points) {
+    std::memcpy(out, &p.x, 16);  // x y z intensity are contiguous floats
+    std::memcpy(out + 16, &p.ring, 2);
+    std::memcpy(out + 18, &p.time, 4);
+    out += kPointStep;
+  }
+}
 
 std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, CloudFields* fields) {
   if (cloud.width == 0 || cloud.height == 0) return std::string("the cloud is empty");

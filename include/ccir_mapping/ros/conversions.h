@@ -10,6 +10,7 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/simulation/lidar_model.h"
 
 namespace ccir_mapping::conversions {
 
@@ -20,6 +21,12 @@ ros::Time toRosTime(core::Stamp stamp);
 std::optional<core::Pose3> toPose(const geometry_msgs::Pose& pose);
 std::optional<core::Pose3> toPose(const geometry_msgs::Transform& transform);
 geometry_msgs::Pose toPoseMsg(const core::Pose3& pose);
+geometry_msgs::Transform toTransformMsg(const core::Pose3& pose);
+
+/// The Velodyne ROS driver's layout: x y z intensity (FLOAT32), ring (UINT16), time (FLOAT32,
+/// seconds after the stamp), packed in 22 bytes per point.
+void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& frame,
+                   sensor_msgs::PointCloud2* cloud);
 
 /// Which optional Velodyne fields a cloud has (x y z are required).
 struct CloudFields {

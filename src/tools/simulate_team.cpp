@@ -1,0 +1,200 @@
+// simulate_team: writes a simulated team mission — one rosbag and one ground-truth file per robot
+// and mission.yaml — from a world, a team and a seed. Every simulation parameter has a flag;
+// --help lists them with unit, range and default. Exit codes: 0 done, 1 cannot write, 2 bad
+// arguments.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include <boost/program_options.hpp>
+
+#include "ccir_mapping/core/common/field_check.h"
+#include "ccir_mapping/core/simulation/mission.h"
+#include "ccir_mapping/ros/mission_files.h"
+
+namespace po = boost::program_options;
+namespace sim = ccir_mapping::core::simulation;
+namespace io = ccir_mapping::simulation_io;
+
+namespace {
+
+constexpr int kExitBadArguments = 2;
+
+std::string flagName(const std::string& name) {
+  std::string flag = name;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+template <class T>
+std::string text(const T& value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+/// Adds one flag per parameter field, named after the field with '-' for '_'.
+class FlagRegistrar {
+ public:
+  explicit FlagRegistrar(po::options_description* options) : options_(options) {}
+
+  void number(const char* name, double& field, const char* unit, double lo, double hi,
+              const char* help) {
+    add(name,
+        po::value<double>(&field)->default_value(field, text(field))->value_name(unitName(unit)),
+        describe(help, unit, text(lo) + " .. " + text(hi)));
+  }
+  void integer(const char* name, int& field, const char* unit, int lo, int hi, const char* help) {
+    add(name, po::value<int>(&field)->default_value(field)->value_name(unitName(unit)),
+        describe(help, unit, text(lo) + " .. " + text(hi)));
+  }
+  void flag(const char* name, bool& field, const char* help) {
+    add(name, po::bool_switch(&field), help);
+  }
+  void choice(const char* name, std::string& field, const std::vector<std::string>& choices,
+              const char* help) {
+    add(name, po::value<std::string>(&field)->default_value(field)->value_name("name"),
+        describe(help, "", ccir_mapping::core::joinChoices(choices)));
+  }
+
+ private:
+  static std::string unitName(const char* unit) { return *unit ? unit : "n"; }
+  static std::string describe(const char* help, const char* unit, const std::string& allowed) {
+    std::string out = help;
+    if (*unit) out += std::string(" [") + unit + "]";
+    return out + "; allowed " + allowed;
+  }
+  void add(const char* name, const po::value_semantic* semantic, const std::string& help) {
+    options_->add_options()(flagName(name).c_str(), semantic, help.c_str());
+  }
+  po::options_description* options_;
+};
+
+/// Writes the robots' recordings on `threads` threads; each robot's data depend only on the
+/// mission, so the result does not depend on the thread count.
+std::vector<io::RobotRecording> recordAll(const sim::Mission& mission, const std::string& dir,
+                                          const io::BagOptions& options, int threads) {
+  const int robots = static_cast<int>(mission.robots().size());
+  std::vector<io::RobotRecording> recordings(robots);
+  std::vector<std::string> errors(robots);
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < robots; i = next++) {
+      try {
+        recordings[i] = io::writeRobotRecording(mission, i, dir, options);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::min(threads, robots); ++t) pool.emplace_back(work);
+  for (auto& thread : pool) thread.join();
+  for (const auto& error : errors) {
+    if (!error.empty()) throw std::runtime_error(error);
+  }
+  return recordings;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines appear as they are written
+  sim::MissionParams params;
+  std::string out_dir = "mission";
+  std::string compression = "none";
+  int threads = 0;
+  io::BagOptions bag_options;
+
+  po::options_description options(
+      "Usage: simulate_team [--world mine] [--robots 3] [--duration 120] [--seed 7] --out DIR\n\n"
+      "Simulates a team of robots with VLP-16 lidars and drifting odometry in a mine, building,\n"
+      "cave or cluttered room, and writes DIR/<robot>.bag (velodyne_points, odom, tf,\n"
+      "ground_truth, sim/world), DIR/<robot>_gt.txt (stamp x y z qx qy qz qw) and\n"
+      "DIR/mission.yaml (parameters and each robot's true start pose in the world).\n"
+      "A flag may be shortened while it stays unambiguous (--duration for --duration-s).\n\n"
+      "Options");
+  options.add_options()("help,h", "print this help and exit")(
+      "out", po::value<std::string>(&out_dir)->default_value(out_dir)->value_name("dir"),
+      "output directory (created if missing)")(
+      "compression", po::value<std::string>(&compression)->default_value(compression),
+      "bag compression; allowed none | lz4 | bz2")(
+      "namespace-topics", po::bool_switch(&bag_options.namespace_topics),
+      "record topics under /<robot>/ (to replay several robots into one master)")(
+      "threads", po::value<int>(&threads)->default_value(0),
+      "robots written in parallel; 0: one per core");
+  FlagRegistrar registrar(&options);
+  sim::MissionParams::fields(params, registrar);
+
+  po::variables_map arguments;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), arguments);
+    po::notify(arguments);
+  } catch (const po::error& e) {
+    std::cerr << "simulate_team: " << e.what() << " (see simulate_team --help)\n";
+    return kExitBadArguments;
+  }
+  if (arguments.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+
+  std::vector<std::string> errors = params.validate();
+  if (compression != "none" && compression != "lz4" && compression != "bz2") {
+    errors.push_back("compression = '" + compression +
+                     "' is not allowed: allowed none | lz4 | bz2");
+  }
+  if (threads < 0)
+    errors.push_back("threads = " + text(threads) + " is out of range: allowed >= 0");
+  if (!errors.empty()) {
+    for (const auto& error : errors) {
+      // Errors start with the parameter's name: show the flag that sets it.
+      const std::string name = error.substr(0, error.find_first_of(" ="));
+      std::cerr << "simulate_team: --" << flagName(name) << ": " << error << '\n';
+    }
+    return kExitBadArguments;
+  }
+  bag_options.compression = compression == "lz4"   ? io::BagCompression::kLz4
+                            : compression == "bz2" ? io::BagCompression::kBz2
+                                                   : io::BagCompression::kNone;
+  if (threads == 0) threads = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+
+  std::string command_line = "simulate_team";
+  for (int i = 1; i < argc; ++i) command_line += std::string(" ") + argv[i];
+
+  const auto started = std::chrono::steady_clock::now();
+  try {
+    std::filesystem::create_directories(out_dir);
+    const sim::Mission mission(params);
+    const auto& world = mission.world();
+    std::printf(
+        "simulate_team: %s %.0f x %.0f m (%zu boxes, %zu cylinders, %zu walls), "
+        "%d robot(s), %.1f s, seed %d -> %s\n",
+        world.kind().c_str(), world.bounds().x_max - world.bounds().x_min,
+        world.bounds().y_max - world.bounds().y_min, world.boxes().size(), world.cylinders().size(),
+        world.walls().size(), params.robots, params.duration_s, params.seed, out_dir.c_str());
+    const auto recordings = recordAll(mission, out_dir, bag_options, threads);
+    io::writeMissionFile(mission, recordings, out_dir, command_line);
+    for (size_t i = 0; i < recordings.size(); ++i) {
+      const auto& robot = mission.robots()[i];
+      const auto& r = recordings[i];
+      std::printf(
+          "  %-9s %-6s starts +%5.1f s  %6.1f m  %5lu scans  shared %3.0f %%  %s (%.0f MB)\n",
+          robot.name.c_str(), robot.aerial ? "aerial" : "ground", robot.start_offset_s,
+          robot.distance_m, static_cast<unsigned long>(r.scans), 100.0 * robot.shared_fraction,
+          r.bag_file.c_str(), r.bag_bytes / 1e6);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "simulate_team: " << e.what() << '\n';
+    return 1;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::printf("simulate_team: wrote %s/mission.yaml in %.1f s\n", out_dir.c_str(), seconds);
+  return 0;
+}
