@@ -210,7 +210,9 @@ void Mission::record(int index, RecordingSink& sink) const {
     sample.heading_variance = odometry.headingVariance();
     if (k_odom > 0) {
       const double dt = toSeconds(odom_stamp - previous.stamp);
-      const Pose3 step = previous.odometry.inverse() * sample.odometry;
+      // From the true motion: a random-walk error has no meaningful derivative, and wheel
+      // encoders measure speed well even when the integrated pose drifts.
+      const Pose3 step = previous.truth.inverse() * sample.truth;
       sample.linear_velocity = step.translation() / dt;
       sample.yaw_rate = std::atan2(step.linear()(1, 0), step.linear()(0, 0)) / dt;
     }

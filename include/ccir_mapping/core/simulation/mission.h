@@ -35,7 +35,7 @@ struct OdometrySample {
   Stamp stamp = 0;
   Pose3 odometry = Pose3::Identity();
   Pose3 truth = Pose3::Identity();
-  /// In base_link, from the odometry increments.
+  /// True velocity in base_link (encoders measure speed well; the drift is in the pose).
   Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();
   double yaw_rate = 0.0;
   double position_variance = 0.0;
