@@ -46,11 +46,13 @@ class FlagRegistrar {
   void number(const char* name, double& field, const char* unit, double lo, double hi,
               const char* help) {
     add(name,
-        po::value<double>(&field)->default_value(field, text(field))->value_name(unitName(unit)),
+        po::value<double>(&field)
+            ->default_value(field, text(field))
+            ->value_name(*unit ? unit : "x"),
         describe(help, unit, text(lo) + " .. " + text(hi)));
   }
   void integer(const char* name, int& field, const char* unit, int lo, int hi, const char* help) {
-    add(name, po::value<int>(&field)->default_value(field)->value_name(unitName(unit)),
+    add(name, po::value<int>(&field)->default_value(field)->value_name(*unit ? unit : "n"),
         describe(help, unit, text(lo) + " .. " + text(hi)));
   }
   void flag(const char* name, bool& field, const char* help) {
@@ -63,7 +65,6 @@ class FlagRegistrar {
   }
 
  private:
-  static std::string unitName(const char* unit) { return *unit ? unit : "n"; }
   static std::string describe(const char* help, const char* unit, const std::string& allowed) {
     std::string out = help;
     if (*unit) out += std::string(" [") + unit + "]";
@@ -118,7 +119,8 @@ int main(int argc, char** argv) {
       "ground_truth, sim/world), DIR/<robot>_gt.txt (stamp x y z qx qy qz qw) and\n"
       "DIR/mission.yaml (parameters and each robot's true start pose in the world).\n"
       "A flag may be shortened while it stays unambiguous (--duration for --duration-s).\n\n"
-      "Options");
+      "Options",
+      110);
   options.add_options()("help,h", "print this help and exit")(
       "out", po::value<std::string>(&out_dir)->default_value(out_dir)->value_name("dir"),
       "output directory (created if missing)")(
