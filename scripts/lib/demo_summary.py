@@ -1,0 +1,61 @@
+#!/usr/bin/python3
+"""Combines the demo's simulated mission (mission.yaml) and each robot's pipeline report into
+<out>/report.json and <out>/summary.txt; prints the summary. Exits 1 when a robot made no
+keyframe."""
+import argparse
+import json
+import sys
+
+import yaml
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--out", required=True, help="demo output folder")
+    args = parser.parse_args()
+    mission = yaml.safe_load(open(args.out + "/mission/mission.yaml"))
+    robots = []
+    for plan in mission["robots"]:
+        report = json.load(open("%s/%s/report.json" % (args.out, plan["name"])))
+        flow = report["nodelets"].get("preprocessor", {}).get("flow", {})
+        robots.append({
+            "name": plan["name"], "kind": plan["kind"], "distance_m": plan["distance_m"],
+            "shared_fraction": plan["shared_fraction"],
+            "initial_pose_in_world": plan["initial_pose_in_world"],
+            "scans_recorded": plan["scans"],
+            "scans_in": flow.get("in velodyne_points messages", 0),
+            "scans_dropped": flow.get("dropped scans messages", 0),
+            "keyframes": report["keyframes"], "keyframe_spacing_m": report["keyframe_spacing_m"],
+            "features_to_outbox": report["features_to_outbox"],
+            "scans_to_outbox": len(report["scans_to_outbox"]), "pipeline": report["nodelets"]})
+    world = mission["world"]
+    result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
+              "seed": mission["parameters"]["seed"], "robots": robots}
+    json.dump(result, open(args.out + "/report.json", "w"), indent=2)
+
+    lines = ["%s %.0f x %.0f m, %d robots, %.0f s, seed %d" % (
+        world["kind"], world["size_x_m"], world["size_y_m"], len(robots), result["duration_s"],
+        result["seed"])]
+    lines.append("  %-9s %7s %6s %6s %9s %12s %9s %7s" % (
+        "robot", "path m", "shared", "scans", "keyframes", "spacing m", "features", "scans"))
+    lines.append("  %-9s %7s %6s %6s %9s %12s %9s %7s" % (
+        "", "", "", "in", "", "mean", "outbox", "outbox"))
+    for r in robots:
+        lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %9d %7d" % (
+            r["name"], r["distance_m"], 100 * r["shared_fraction"], r["scans_in"], r["keyframes"],
+            r["keyframe_spacing_m"]["mean"], r["features_to_outbox"], r["scans_to_outbox"]))
+    total_scans = sum(r["scans_in"] for r in robots)
+    total_keyframes = sum(r["keyframes"] for r in robots)
+    with open(args.out + "/summary.txt", "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    if any(r["keyframes"] == 0 for r in robots):
+        print("[demo] FAILED: a robot made no keyframe; see its pipeline.log", file=sys.stderr)
+        return 1
+    print("demo done: %d robots in a simulated mine turned %d scans into %d keyframes; report in "
+          "%s/report.json" % (len(robots), total_scans, total_keyframes, args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
