@@ -130,7 +130,9 @@ TEST_F(SimulatedMissionFiles, CloudsHaveTheVelodyneDriverLayout) {
     EXPECT_TRUE(cloud->is_dense);
     // Published when the sweep ends; sweeps follow each other.
     EXPECT_NEAR((m.getTime() - cloud->header.stamp).toSec(), 0.1, 1e-9);
-    if (scans++) EXPECT_NEAR((cloud->header.stamp - previous_stamp).toSec(), 0.1, 1e-9);
+    if (scans++ > 0) {
+      EXPECT_NEAR((cloud->header.stamp - previous_stamp).toSec(), 0.1, 1e-9);
+    }
     previous_stamp = cloud->header.stamp;
   }
   EXPECT_EQ(scans, 20);

@@ -9,29 +9,10 @@
 
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/simulation/lidar_params.h"
+#include "ccir_mapping/core/simulation/lidar_scan.h"
 #include "ccir_mapping/core/simulation/world.h"
 
 namespace ccir_mapping::core::simulation {
-
-/// One return in the sensor frame at the time of its firing (raw, not motion-compensated), the
-/// fields the Velodyne ROS driver publishes.
-struct LidarPoint {
-  float x, y, z;
-  float intensity;
-  std::uint16_t ring;
-  /// Seconds after the scan's stamp.
-  float time;
-};
-
-struct LidarScan {
-  /// Start of the sweep.
-  Stamp stamp = 0;
-  /// Organised scans hold rings x columns points (row = ring), NaN where a beam had no return;
-  /// others hold only returns, column by column.
-  bool organized = false;
-  int columns = 0;
-  std::vector<LidarPoint> points;
-};
 
 class LidarModel {
  public:

@@ -7,8 +7,11 @@
 #include <string>
 #include <vector>
 
-#include "ccir_mapping/core/simulation/primitives.h"
+#include "ccir_mapping/core/simulation/box.h"
+#include "ccir_mapping/core/simulation/cylinder.h"
+#include "ccir_mapping/core/simulation/ray.h"
 #include "ccir_mapping/core/simulation/road_map.h"
+#include "ccir_mapping/core/simulation/wall.h"
 
 namespace ccir_mapping::core::simulation {
 

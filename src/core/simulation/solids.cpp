@@ -1,4 +1,7 @@
-#include "ccir_mapping/core/simulation/primitives.h"
+// Ray tests of the solids worlds are made of (box.h, cylinder.h, wall.h).
+#include "ccir_mapping/core/simulation/box.h"
+#include "ccir_mapping/core/simulation/cylinder.h"
+#include "ccir_mapping/core/simulation/wall.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,22 @@
+// A solid upright cylinder of a simulated world.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "ccir_mapping/core/simulation/ray.h"
+
+namespace ccir_mapping::core::simulation {
+
+/// A solid upright cylinder (columns).
+struct Cylinder {
+  Eigen::Vector2d center;
+  double radius = 0.0;
+  double z_min = 0.0;
+  double z_max = 0.0;
+  float reflectivity = 0.5F;
+
+  bool intersect(const Ray& ray, double max_range, Hit* hit) const;
+  Footprint footprint() const;
+};
+
+}  // namespace ccir_mapping::core::simulation
