@@ -307,6 +307,19 @@ TEST(SimulateTeamCommand, BadValuesExitWithCode2AndNameTheFlag) {
   }
 }
 
+TEST(SimulateTeamCommand, OutputDoesNotDependOnTheThreadCount) {
+  const fs::path one = freshDir("one_thread");
+  const fs::path two = freshDir("two_threads");
+  const std::string mission = "--robots 3 --duration 1 --lidar-columns 360 --start-interval-s 0.2";
+  ASSERT_EQ(simulateTeam(mission + " --threads 1 --out " + one.string()).exit_code, 0);
+  ASSERT_EQ(simulateTeam(mission + " --threads 2 --out " + two.string()).exit_code, 0);
+  for (const char* file : {"robot_a.bag", "robot_b.bag", "robot_c.bag", "robot_c_gt.txt"}) {
+    EXPECT_TRUE(readFile(one / file) == readFile(two / file)) << file << " differs";
+  }
+  fs::remove_all(one);
+  fs::remove_all(two);
+}
+
 TEST(SimulateTeamCommand, WritesAMissionAndReportsUnwritableOutput) {
   const fs::path dir = freshDir("command");
   const CommandRun run = simulateTeam(
