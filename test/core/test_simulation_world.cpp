@@ -18,7 +18,9 @@ Ray ray(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
 
 Eigen::Vector3d randomDirection(std::mt19937_64& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  return Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+  Eigen::Vector3d v;
+  for (int i = 0; i < 3; ++i) v[i] = n(rng);
+  return v.normalized();
 }
 
 WorldParams paramsFor(const std::string& kind) {

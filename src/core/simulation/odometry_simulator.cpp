@@ -28,7 +28,8 @@ const Pose3& OdometrySimulator::update(const Pose3& truth) {
     const double heading_variance =
         params_.odom_noise_rad_per_m * params_.odom_noise_rad_per_m * distance +
         params_.odom_noise_rad_per_rad * params_.odom_noise_rad_per_rad * turned;
-    Eigen::Vector3d position_error(normal_(rng_), normal_(rng_), planar_ ? 0.0 : normal_(rng_));
+    Eigen::Vector3d position_error = Eigen::Vector3d::Zero();  // drawn in order x, y, z
+    for (int axis = 0; axis < (planar_ ? 2 : 3); ++axis) position_error[axis] = normal_(rng_);
     increment.translation() += position_sigma * position_error;
     increment.linear() =
         r * Eigen::AngleAxisd(std::sqrt(heading_variance) * normal_(rng_), Eigen::Vector3d::UnitZ())

@@ -24,6 +24,12 @@ double uniform(Rng& rng, double lo, double hi) {
   return std::uniform_real_distribution<double>(lo, hi)(rng);
 }
 
+/// x drawn before y: several draws in one argument list would be drawn in an unspecified order.
+Vector2d uniform2(Rng& rng, const Vector2d& lo, const Vector2d& hi) {
+  const double x = uniform(rng, lo.x(), hi.x());
+  return {x, uniform(rng, lo.y(), hi.y())};
+}
+
 /// Four boxes enclosing [0, x] x [0, y] from the outside.
 void addOuterWalls(World& world, double x, double y, double height) {
   const double t = kOuterWallM;
@@ -52,8 +58,9 @@ World buildMine(const WorldParams& p, Rng& rng) {
   for (int i = 0; i < p.mine_pillars_x; ++i) {
     for (int j = 0; j < p.mine_pillars_y; ++j) {
       const Vector2d center(d + 0.5 * w + i * pitch, d + 0.5 * w + j * pitch);
-      const double j_ = p.mine_size_jitter_m;
-      const Vector2d size(w + uniform(rng, -j_, j_), w + uniform(rng, -j_, j_));
+      const double jitter = p.mine_size_jitter_m;
+      const Vector2d size =
+          uniform2(rng, Vector2d::Constant(w - jitter), Vector2d::Constant(w + jitter));
       const double yaw = uniform(rng, -max_yaw, max_yaw);
       const auto reflectivity = static_cast<float>(uniform(rng, 0.45, 0.55));
       world.add(Box::upright(center, size, yaw, -kSeamM, h + kSeamM, reflectivity));
@@ -73,8 +80,10 @@ World buildMine(const WorldParams& p, Rng& rng) {
       extent[axis] = depth;
       extent[1 - axis] = along;
       const Eigen::Rotation2Dd rotation(yaw);
-      world.add(Box::upright(center + rotation * local, extent, yaw + uniform(rng, -0.1, 0.1),
-                             -kSeamM, uniform(rng, 0.3, 1.0), 0.4F));
+      const double rubble_yaw = yaw + uniform(rng, -0.1, 0.1);
+      const double rubble_height = uniform(rng, 0.3, 1.0);
+      world.add(Box::upright(center + rotation * local, extent, rubble_yaw, -kSeamM, rubble_height,
+                             0.4F));
     }
   }
 
@@ -451,16 +460,17 @@ World buildCluttered(const WorldParams& p, Rng& rng) {
         columns < p.cluttered_columns && (boxes >= p.cluttered_boxes || attempt % 4 == 0);
     if (column) {
       const double radius = uniform(rng, 0.15, 0.5);
-      const Vector2d c(uniform(rng, radius, sx - radius), uniform(rng, radius, sy - radius));
+      const Vector2d c =
+          uniform2(rng, Vector2d::Constant(radius), Vector2d(sx, sy).array() - radius);
       if (!clear_of_lanes(c, radius)) continue;
       world.add(Cylinder{c, radius, -kSeamM, h + kSeamM, 0.5F});
       ++columns;
       continue;
     }
-    const Vector2d size(uniform(rng, 0.3, 2.0), uniform(rng, 0.3, 2.0));
+    const Vector2d size = uniform2(rng, Vector2d::Constant(0.3), Vector2d::Constant(2.0));
     const double half_diagonal = 0.5 * size.norm();
-    const Vector2d c(uniform(rng, half_diagonal, sx - half_diagonal),
-                     uniform(rng, half_diagonal, sy - half_diagonal));
+    const Vector2d c =
+        uniform2(rng, Vector2d::Constant(half_diagonal), Vector2d(sx, sy).array() - half_diagonal);
     if (!clear_of_lanes(c, half_diagonal)) continue;
     // On the floor, a tall stack, a shelf in mid-air, or hanging from the ceiling.
     double z0 = 0.0;
@@ -483,8 +493,9 @@ World buildCluttered(const WorldParams& p, Rng& rng) {
         z0 = h - uniform(rng, 0.5, 2.0);
         break;
     }
-    world.add(Box::upright(c, size, uniform(rng, 0.0, kPi), z0, z1,
-                           static_cast<float>(uniform(rng, 0.2, 0.9))));
+    const double yaw = uniform(rng, 0.0, kPi);
+    const auto reflectivity = static_cast<float>(uniform(rng, 0.2, 0.9));
+    world.add(Box::upright(c, size, yaw, z0, z1, reflectivity));
     ++boxes;
   }
   return world;
