@@ -1,10 +1,13 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Thin: checks input, places each scan
-// with odometry, lets the core decide keyframes, publishes them zero-copy.
+// with odometry, lets the core decide keyframes and filter them, publishes them zero-copy.
+#include <algorithm>
+#include <chrono>
 #include <mutex>
 #include <sstream>
 
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Odometry.h>
+#include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
@@ -16,6 +19,7 @@
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
+#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
@@ -24,6 +28,8 @@
 namespace ccir_mapping {
 
 using core::preprocess::KeyframeSelector;
+using core::preprocess::PreprocessStats;
+using core::preprocess::ScanPreprocessor;
 
 class PreprocessorNodelet final : public PipelineNodelet {
  private:
@@ -31,6 +37,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
     selector_ = std::make_unique<KeyframeSelector>(selectorParams(settings_.core));
+    preprocessor_ = std::make_unique<ScanPreprocessor>(settings_.core);
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh);
 
     keyframe_pub_ = nh.advertise<Keyframe>(topics::kKeyframes, topics::kKeyframeQueueSize);
@@ -150,6 +157,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
       count("dropped scans");
       return;
     }
+    warnAboutMissingFields(fields);
     if (msg->header.frame_id.empty()) {
       NODELET_WARN_THROTTLE(5.0, "dropping cloud at %.3f: empty frame_id",
                             msg->header.stamp.toSec());
@@ -183,6 +191,27 @@ class PreprocessorNodelet final : public PipelineNodelet {
       return;
     }
 
+    // Enough usable points, before the scan may take a keyframe's place.
+    conversions::toPcl(*msg, &scan_);
+    PreprocessStats counted;
+    const std::size_t usable = preprocessor_->usablePoints(scan_, &counted);
+    if (msg->height == 1 && counted.not_finite > 0) {
+      NODELET_WARN_THROTTLE(10.0,
+                            "cloud at %.3f: %zu of %zu points are NaN, infinite or zero in an "
+                            "unorganised cloud (expected only in organised ones); they are skipped",
+                            msg->header.stamp.toSec(), counted.not_finite, counted.points_in);
+    }
+    if (usable < static_cast<std::size_t>(settings_.core.min_points)) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "dropping cloud at %.3f: only %zu of %zu points are finite and within "
+                            "[%g, %g] m (min_points %d)",
+                            msg->header.stamp.toSec(), usable, counted.points_in,
+                            settings_.core.min_range_m, settings_.core.max_range_m,
+                            settings_.core.min_points);
+      count("dropped scans");
+      return;
+    }
+
     const KeyframeSelector::Decision decision =
         selector_->offer(conversions::toStamp(msg->header.stamp), *pose);
     switch (decision.outcome) {
@@ -212,9 +241,32 @@ class PreprocessorNodelet final : public PipelineNodelet {
     keyframe->odom_pose = conversions::toPoseMsg(*pose);
     keyframe->travelled_m = static_cast<float>(decision.travelled_m);
     keyframe->rotated_rad = static_cast<float>(decision.rotated_rad);
-    // Filtering, down-sampling and normals arrive with the preprocessing core; until then the
-    // keyframe carries the scan as received.
-    keyframe->cloud = *msg;
+    // Gravity is "up" in the odom frame; the core wants it in the sensor frame.
+    const Eigen::Vector3f up =
+        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+    PreprocessStats stats;
+    const auto start = std::chrono::steady_clock::now();
+    const ScanPreprocessor::OutputCloud::Ptr cloud = preprocessor_->process(scan_, up, &stats);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    pcl::toROSMsg(*cloud, keyframe->cloud);
+    keyframe->cloud.header = msg->header;
+    if (cloud->empty()) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "keyframe %lu at %.3f has no point left after preprocessing (%zu in "
+                            "range, %zu without a normal, %zu horizontal, %zu outside the slice)",
+                            static_cast<unsigned long>(decision.id), msg->header.stamp.toSec(),
+                            stats.points_in - stats.not_finite - stats.out_of_range,
+                            stats.without_normal, stats.horizontal, stats.outside_slice);
+    }
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      last_points_in_ = stats.points_in;
+      last_points_out_ = stats.points_out;
+      total_ms_ += ms;
+      max_ms_ = std::max(max_ms_, ms);
+      ++processed_;
+    }
     count("out keyframes", keyframe->cloud.data.size());
     keyframe_pub_.publish(keyframe);
   }
@@ -226,6 +278,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
     candidate.min_range_m = config.min_range_m;
     candidate.max_range_m = config.max_range_m;
     candidate.voxel_leaf_m = config.voxel_leaf_m;
+    candidate.normal_radius_m = config.normal_radius_m;
+    candidate.horizontal_normal_z = config.horizontal_normal_z;
     candidate.keyframe_distance_m = config.keyframe_distance_m;
     candidate.keyframe_rotation_deg = config.keyframe_rotation_deg;
     const auto errors = candidate.validate();
@@ -234,6 +288,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
       config.min_range_m = settings_.core.min_range_m;
       config.max_range_m = settings_.core.max_range_m;
       config.voxel_leaf_m = settings_.core.voxel_leaf_m;
+      config.normal_radius_m = settings_.core.normal_radius_m;
+      config.horizontal_normal_z = settings_.core.horizontal_normal_z;
       config.keyframe_distance_m = settings_.core.keyframe_distance_m;
       config.keyframe_rotation_deg = settings_.core.keyframe_rotation_deg;
       return;
@@ -242,6 +298,10 @@ class PreprocessorNodelet final : public PipelineNodelet {
     noteChange(changes, "min_range_m", settings_.core.min_range_m, candidate.min_range_m);
     noteChange(changes, "max_range_m", settings_.core.max_range_m, candidate.max_range_m);
     noteChange(changes, "voxel_leaf_m", settings_.core.voxel_leaf_m, candidate.voxel_leaf_m);
+    noteChange(changes, "normal_radius_m", settings_.core.normal_radius_m,
+               candidate.normal_radius_m);
+    noteChange(changes, "horizontal_normal_z", settings_.core.horizontal_normal_z,
+               candidate.horizontal_normal_z);
     noteChange(changes, "keyframe_distance_m", settings_.core.keyframe_distance_m,
                candidate.keyframe_distance_m);
     noteChange(changes, "keyframe_rotation_deg", settings_.core.keyframe_rotation_deg,
@@ -249,6 +309,29 @@ class PreprocessorNodelet final : public PipelineNodelet {
     if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
     settings_.core = candidate;
     selector_->setParams(selectorParams(candidate));
+    preprocessor_ = std::make_unique<ScanPreprocessor>(candidate);
+  }
+
+  // Once a minute at most: optional fields of the Velodyne layout that the clouds lack.
+  void warnAboutMissingFields(const conversions::CloudFields& fields) {
+    std::string missing;
+    if (!fields.intensity) missing += " intensity";
+    if (!fields.ring) missing += " ring";
+    if (!fields.time) missing += " time";
+    if (missing.empty()) return;
+    NODELET_WARN_THROTTLE(60.0,
+                          "clouds on %s lack the field(s)%s of the Velodyne driver's layout (x y "
+                          "z intensity ring time); keyframes are made from what is there%s",
+                          getNodeHandle().resolveName(topics::kVelodynePoints).c_str(),
+                          missing.c_str(), fields.intensity ? "" : " (intensity 0)");
+  }
+
+  void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    status.add("keyframe points in (last)", last_points_in_);
+    status.add("keyframe points out (last)", last_points_out_);
+    status.addf("ms per keyframe (mean)", "%.1f", processed_ ? total_ms_ / processed_ : 0.0);
+    status.addf("ms per keyframe (max)", "%.1f", max_ms_);
   }
 
   // Two seconds of VLP-16 scans at 10 Hz.
@@ -260,6 +343,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
   core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> pending_{kMaxPendingScans};
   std::optional<ros::Time> last_queued_stamp_;
   std::unique_ptr<KeyframeSelector> selector_;
+  std::unique_ptr<ScanPreprocessor> preprocessor_;
+  ScanPreprocessor::InputCloud scan_;  // conversion buffer, reused scan after scan
   core::preprocess::OdometryBuffer odometry_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
@@ -267,6 +352,12 @@ class PreprocessorNodelet final : public PipelineNodelet {
   ros::Subscriber odom_sub_;
   ros::Subscriber cloud_sub_;
   ros::SteadyTimer tf_poll_timer_;
+  std::mutex stats_mutex_;  // guards the diagnostics figures below
+  std::size_t last_points_in_ = 0;
+  std::size_t last_points_out_ = 0;
+  double total_ms_ = 0.0;
+  double max_ms_ = 0.0;
+  std::size_t processed_ = 0;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<PreprocessorConfig>> reconfigure_;
 };

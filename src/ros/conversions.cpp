@@ -113,6 +113,7 @@ std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, Clo
   if (cloud.width == 0 || cloud.height == 0) return std::string("the cloud is empty");
   const std::uint64_t points = std::uint64_t{cloud.width} * cloud.height;
   if (cloud.point_step == 0) return std::string("point_step is 0");
+  if (cloud.is_bigendian) return std::string("big-endian data is not supported");
   if (std::uint64_t{cloud.row_step} < std::uint64_t{cloud.width} * cloud.point_step) {
     return "row_step " + std::to_string(cloud.row_step) + " < width * point_step";
   }
@@ -135,6 +136,44 @@ std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, Clo
     fields->time = findField(cloud, "time") != nullptr || findField(cloud, "t") != nullptr;
   }
   return std::nullopt;
+}
+
+void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI>* out) {
+  const std::uint32_t x = findField(cloud, "x")->offset;
+  const std::uint32_t y = findField(cloud, "y")->offset;
+  const std::uint32_t z = findField(cloud, "z")->offset;
+  const sensor_msgs::PointField* intensity = findField(cloud, "intensity");
+  const std::uint8_t type = intensity ? intensity->datatype : 0;
+  const std::uint32_t size = type == sensor_msgs::PointField::FLOAT32  ? 4
+                             : type == sensor_msgs::PointField::UINT16 ? 2
+                             : type == sensor_msgs::PointField::UINT8  ? 1
+                                                                       : 0;
+  const bool has_intensity = size > 0 && intensity->offset + size <= cloud.point_step;
+  out->resize(std::size_t{cloud.width} * cloud.height);
+  out->width = cloud.width;
+  out->height = cloud.height;
+  out->is_dense = cloud.is_dense;
+  std::size_t i = 0;
+  for (std::uint32_t row = 0; row < cloud.height; ++row) {
+    const std::uint8_t* point = cloud.data.data() + std::size_t{row} * cloud.row_step;
+    for (std::uint32_t column = 0; column < cloud.width; ++column, ++i, point += cloud.point_step) {
+      pcl::PointXYZI& p = (*out)[i];
+      std::memcpy(&p.x, point + x, 4);
+      std::memcpy(&p.y, point + y, 4);
+      std::memcpy(&p.z, point + z, 4);
+      p.intensity = 0.0F;
+      if (!has_intensity) continue;
+      if (size == 4) {
+        std::memcpy(&p.intensity, point + intensity->offset, 4);
+      } else if (size == 2) {
+        std::uint16_t value;
+        std::memcpy(&value, point + intensity->offset, 2);
+        p.intensity = value;
+      } else {
+        p.intensity = point[intensity->offset];
+      }
+    }
+  }
 }
 
 }  // namespace ccir_mapping::conversions

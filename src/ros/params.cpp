@@ -74,6 +74,15 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.read("min_range_m", p.min_range_m);
   reader.read("max_range_m", p.max_range_m);
   reader.read("voxel_leaf_m", p.voxel_leaf_m);
+  reader.read("normal_radius_m", p.normal_radius_m);
+  reader.readChoice("drop_horizontal", p.drop_horizontal, core::preprocess::parseHorizontalFilter,
+                    core::preprocess::kHorizontalFilterChoices, &core::preprocess::toString);
+  reader.read("horizontal_normal_z", p.horizontal_normal_z);
+  reader.read("slice_mode", p.slice_mode);
+  reader.read("slice_min_z_m", p.slice_min_z_m);
+  reader.read("slice_max_z_m", p.slice_max_z_m);
+  reader.read("threads", p.threads);
+  reader.read("min_points", p.min_points);
   reader.read("keyframe_distance_m", p.keyframe_distance_m);
   reader.read("keyframe_rotation_deg", p.keyframe_rotation_deg);
   reader.read("odom_tolerance_s", p.odom_tolerance_s);

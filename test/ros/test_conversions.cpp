@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -86,6 +87,47 @@ TEST(Conversions, RejectsMalformedClouds) {
   auto bad_row = velodyneCloud(10);
   bad_row.row_step = 4;
   EXPECT_NE(checkCloud(bad_row, nullptr)->find("row_step"), std::string::npos);
+}
+
+TEST(Conversions, ToPclKeepsLayoutAndReadsIntensityOfAnyWidth) {
+  // Organised 2 x 3 cloud with padding at the end of each row and uint8 intensity.
+  sensor_msgs::PointCloud2 cloud;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(
+      4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, "intensity", 1, sensor_msgs::PointField::UINT8);
+  modifier.resize(6);
+  cloud.height = 2;
+  cloud.width = 3;
+  cloud.row_step = cloud.point_step * 3 + 5;
+  cloud.data.assign(cloud.row_step * 2, 0);
+  for (std::uint32_t row = 0; row < 2; ++row) {
+    for (std::uint32_t column = 0; column < 3; ++column) {
+      std::uint8_t* p = cloud.data.data() + row * cloud.row_step + column * cloud.point_step;
+      const float xyz[3] = {static_cast<float>(row), static_cast<float>(column), 7.0F};
+      std::memcpy(p, xyz, sizeof xyz);
+      p[cloud.fields[3].offset] = static_cast<std::uint8_t>(10 * row + column);
+    }
+  }
+  ASSERT_FALSE(checkCloud(cloud, nullptr));
+  pcl::PointCloud<pcl::PointXYZI> out;
+  toPcl(cloud, &out);
+  ASSERT_EQ(out.size(), 6U);
+  EXPECT_EQ(out.height, 2U);
+  EXPECT_EQ(out.width, 3U);
+  EXPECT_EQ(out.at(2, 1).x, 1.0F);  // (column 2, row 1)
+  EXPECT_EQ(out.at(2, 1).y, 2.0F);
+  EXPECT_EQ(out.at(2, 1).z, 7.0F);
+  EXPECT_EQ(out.at(2, 1).intensity, 12.0F);
+
+  // Float intensity of the Velodyne layout; no intensity at all gives 0.
+  const auto velodyne = velodyneCloud(10);
+  toPcl(velodyne, &out);
+  EXPECT_EQ(out.size(), 10U);
+  auto plain = velodyneCloud(10);
+  plain.fields[3].name = "reflectivity";
+  toPcl(plain, &out);
+  for (const auto& p : out) EXPECT_EQ(p.intensity, 0.0F);
 }
 
 }  // namespace

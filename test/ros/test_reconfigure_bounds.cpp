@@ -32,6 +32,8 @@ TEST(ReconfigureBounds, Preprocessor) {
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, min_range_m);
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, max_range_m);
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, voxel_leaf_m);
+  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, normal_radius_m);
+  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, horizontal_normal_z);
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, keyframe_distance_m);
   CCIR_EXPECT_FIELD(Core, PreprocessorConfig, keyframe_rotation_deg);
 }

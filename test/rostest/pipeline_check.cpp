@@ -2,7 +2,9 @@
 // flows out of each nodelet, including how bad input is dropped without stopping the pipeline.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -178,7 +180,11 @@ TEST_F(Pipeline, KeyframesFollowOdometryDistance) {
     EXPECT_NEAR(kf.odom_pose.position.x, 1.0 * k, 1e-9);
     EXPECT_NEAR(kf.odom_pose.position.z, kSensorHeightM, 1e-9);  // the sensor mount is applied
     EXPECT_NEAR(kf.travelled_m, k == 0 ? 0.0 : 1.0, 1e-6);
-    EXPECT_EQ(kf.cloud.width * kf.cloud.height, 1000u);
+    // The preprocessed scan: a 5 m circle of 1000 points, one per 0.1 m voxel, with normals.
+    EXPECT_GT(kf.cloud.width * kf.cloud.height, 250u);
+    EXPECT_LT(kf.cloud.width * kf.cloud.height, 400u);
+    EXPECT_TRUE(std::any_of(kf.cloud.fields.begin(), kf.cloud.fields.end(),
+                            [](const auto& f) { return f.name == "normal_x"; }));
   }
 }
 
@@ -231,6 +237,21 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   s().publishOdometry(truncated.header.stamp, x + 5.0);
   s().publishScanAt(x + 10.0, "no_such_frame");
   s().publishOdometry(s().stamp(s().scan++), x + 11.0, "wrong_odom_frame");
+  auto empty = State::cloud(s().robot + "/velodyne", s().stamp(s().scan++));
+  empty.width = 0;
+  empty.row_step = 0;
+  empty.data.clear();
+  s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(empty));  // malformed too
+  // Every point NaN: placeable, but nothing to make a keyframe of.
+  auto nan_cloud = State::cloud(s().robot + "/velodyne", s().stamp(s().scan++));
+  for (sensor_msgs::PointCloud2Iterator<float> p(nan_cloud, "x"); p != p.end(); ++p) {
+    p[0] = p[1] = p[2] = std::numeric_limits<float>::quiet_NaN();
+  }
+  s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(nan_cloud));
+  s().publishOdometry(nan_cloud.header.stamp, x + 11.5);
+  // A stamp going backwards.
+  s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(
+      State::cloud(s().robot + "/velodyne", s().stamp(s().scan - 3))));
   // A good scan afterwards still makes the next keyframe, and overtakes the unplaceable one.
   s().publishScanAt(x + 12.0);
   ASSERT_TRUE(waitFor([&] { return s().keyframes.size() >= before + 1; }, 10.0));
@@ -242,6 +263,13 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
         return s().logged(rosgraph_msgs::Log::WARN, "in frame 'no_such_frame': cannot place it");
       },
       10.0));
+  for (const char* warning :
+       {"dropping malformed cloud at", "only 0 of 1000 points are finite",
+        "1000 of 1000 points are NaN, infinite or zero in an unorganised cloud",
+        "stamp not after the previous scan", "lack the field(s) intensity ring time"}) {
+    EXPECT_TRUE(waitFor([&] { return s().logged(rosgraph_msgs::Log::WARN, warning); }, 10.0))
+        << warning;
+  }
   if (!s().odom_on_tf) {  // with tf, odometry in other frames is just another tf edge
     EXPECT_TRUE(waitFor(
         [this] {

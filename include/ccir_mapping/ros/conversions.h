@@ -6,6 +6,8 @@
 
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -39,5 +41,10 @@ struct CloudFields {
 /// x y z are FLOAT32 inside point_step; optional fields are reported. Returns an error that
 /// names the problem, or the fields found.
 std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, CloudFields* fields);
+
+/// Copies x y z and intensity (FLOAT32, UINT8 or UINT16; 0 when absent or of another type) of
+/// every point, in the cloud's order and layout (width x height). Needs a cloud checkCloud
+/// accepted.
+void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI>* out);
 
 }  // namespace ccir_mapping::conversions

@@ -15,6 +15,38 @@ ScanPreprocessor::ScanPreprocessor(const PreprocessorParams& params) : params_(p
   if (!errors.empty()) throw std::invalid_argument(errors.front());
 }
 
+namespace {
+
+/// Finite, not the driver's zero "no return" point, and within [min, max] range.
+bool inRange(const pcl::PointXYZI& p, double min2, double max2, PreprocessStats& s) {
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
+      (p.x == 0.0F && p.y == 0.0F && p.z == 0.0F)) {
+    ++s.not_finite;
+    return false;
+  }
+  const double r2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
+                    static_cast<double>(p.z) * p.z;
+  if (r2 < min2 || r2 > max2) {
+    ++s.out_of_range;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::size_t ScanPreprocessor::usablePoints(const InputCloud& scan, PreprocessStats* stats) const {
+  PreprocessStats local;
+  PreprocessStats& s = stats ? *stats : local;
+  s = PreprocessStats{};
+  s.points_in = scan.size();
+  const double min2 = params_.min_range_m * params_.min_range_m;
+  const double max2 = params_.max_range_m * params_.max_range_m;
+  std::size_t usable = 0;
+  for (const auto& p : scan) usable += inRange(p, min2, max2, s);
+  return usable;
+}
+
 ScanPreprocessor::OutputCloud::Ptr ScanPreprocessor::process(const InputCloud& scan,
                                                              const Eigen::Vector3f& up,
                                                              PreprocessStats* stats) const {
@@ -29,17 +61,7 @@ ScanPreprocessor::OutputCloud::Ptr ScanPreprocessor::process(const InputCloud& s
   InputCloud cropped;
   cropped.reserve(scan.size());
   for (const auto& p : scan) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
-        (p.x == 0.0F && p.y == 0.0F && p.z == 0.0F)) {
-      ++s.not_finite;
-      continue;
-    }
-    const double r2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y +
-                      static_cast<double>(p.z) * p.z;
-    if (r2 < min2 || r2 > max2) {
-      ++s.out_of_range;
-      continue;
-    }
+    if (!inRange(p, min2, max2, s)) continue;
     pcl::PointXYZI q = p;
     if (!std::isfinite(q.intensity)) q.intensity = 0.0F;
     cropped.push_back(q);

@@ -30,6 +30,8 @@ struct PreprocessorParams {
   double slice_max_z_m = 0.25;
   /// Threads for the normal estimation (0: one per core).
   int threads = 1;
+  /// Scans with fewer finite points within range are dropped rather than made keyframes.
+  int min_points = 100;
   /// A new keyframe is made after this much odometry travel since the previous one ...
   double keyframe_distance_m = 1.0;
   /// ... or after this much rotation, whichever comes first.

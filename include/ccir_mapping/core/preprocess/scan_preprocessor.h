@@ -39,6 +39,10 @@ class ScanPreprocessor {
   OutputCloud::Ptr process(const InputCloud& scan, const Eigen::Vector3f& up,
                            PreprocessStats* stats = nullptr) const;
 
+  /// Counts the points process() would keep through the range crop (not_finite, out_of_range
+  /// and points_in are filled in `stats`); cheap enough for every scan.
+  std::size_t usablePoints(const InputCloud& scan, PreprocessStats* stats = nullptr) const;
+
   const PreprocessorParams& params() const { return params_; }
 
  private:
