@@ -62,7 +62,7 @@ geometry_msgs::Transform toTransformMsg(const core::Pose3& pose) {
   return tf2::eigenToTransform(pose).transform;
 }
 
-void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& frame,
+void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
                    sensor_msgs::PointCloud2* cloud) {
   using sensor_msgs::PointField;
   constexpr std::uint32_t kPointStep = 22;
@@ -88,7 +88,7 @@ void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& f
   }
   const auto count = static_cast<std::uint32_t>(scan.points.size());
   if (scan.organized && scan.columns > 0) {
-    cloud->height = core::simulation::LidarModel::kRings;
+    cloud->height = static_cast<std::uint32_t>(scan.rings);
     cloud->width = static_cast<std::uint32_t>(scan.columns);
   } else {
     cloud->height = 1;
@@ -99,7 +99,7 @@ void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& f
   cloud->row_step = kPointStep * cloud->width;
   cloud->is_dense = !scan.organized;
   cloud->data.resize(std::size_t{kPointStep} * count);
-  static_assert(offsetof(core::simulation::LidarPoint, intensity) == 12);
+  static_assert(offsetof(core::LidarPoint, intensity) == 12);
   std::uint8_t* out = cloud->data.data();
   for (const auto& p : scan.points) {
     std::memcpy(out, &p.x, 16);  // x y z intensity are contiguous floats

@@ -21,8 +21,8 @@
 namespace ccir_mapping::simulation_io {
 namespace {
 
+using core::LidarScan;
 using core::Pose3;
-using core::simulation::LidarScan;
 using core::simulation::Mission;
 using core::simulation::OdometrySample;
 

@@ -214,10 +214,10 @@ TEST_F(SimulatedMissionFiles, SameSeedWritesIdenticalBags) {
 }
 
 TEST(SimulatedScanConversion, OrganisedScansKeepRingRows) {
-  sim::LidarScan scan;
+  core::LidarScan scan;
   scan.organized = true;
   scan.columns = 4;
-  scan.points.assign(64, sim::LidarPoint{1.0F, 2.0F, 3.0F, 4.0F, 5, 0.25F});
+  scan.points.assign(64, core::LidarPoint{1.0F, 2.0F, 3.0F, 4.0F, 5, 0.25F});
   sensor_msgs::PointCloud2 cloud;
   conversions::toPointCloud2(scan, "robot_a/velodyne", &cloud);
   EXPECT_EQ(cloud.height, 16U);

@@ -11,8 +11,8 @@
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
-#include "ccir_mapping/core/simulation/lidar_model.h"
 
 namespace ccir_mapping::conversions {
 
@@ -27,7 +27,7 @@ geometry_msgs::Transform toTransformMsg(const core::Pose3& pose);
 
 /// The Velodyne ROS driver's layout: x y z intensity (FLOAT32), ring (UINT16), time (FLOAT32,
 /// seconds after the stamp), packed in 22 bytes per point.
-void toPointCloud2(const core::simulation::LidarScan& scan, const std::string& frame,
+void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
                    sensor_msgs::PointCloud2* cloud);
 
 /// Which optional Velodyne fields a cloud has (x y z are required).

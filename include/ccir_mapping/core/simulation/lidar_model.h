@@ -7,9 +7,9 @@
 #include <random>
 #include <vector>
 
+#include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/simulation/lidar_params.h"
-#include "ccir_mapping/core/simulation/lidar_scan.h"
 #include "ccir_mapping/core/simulation/world.h"
 
 namespace ccir_mapping::core::simulation {

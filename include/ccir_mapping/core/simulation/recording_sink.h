@@ -1,8 +1,8 @@
 // What a simulated robot records, delivered in time order.
 #pragma once
 
+#include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
-#include "ccir_mapping/core/simulation/lidar_scan.h"
 
 namespace ccir_mapping::core::simulation {
 

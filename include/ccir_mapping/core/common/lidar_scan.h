@@ -1,4 +1,5 @@
-// One simulated lidar scan, as the VLP-16 model makes it.
+// One rotation of a Velodyne-style lidar in the layout its ROS driver publishes: the simulator
+// makes them, the pcap reader decodes them.
 #pragma once
 
 #include <cstdint>
@@ -6,7 +7,7 @@
 
 #include "ccir_mapping/core/common/types.h"
 
-namespace ccir_mapping::core::simulation {
+namespace ccir_mapping::core {
 
 /// One return in the sensor frame at the time of its firing (raw, not motion-compensated), the
 /// fields the Velodyne ROS driver publishes.
@@ -24,8 +25,9 @@ struct LidarScan {
   /// Organised scans hold rings x columns points (row = ring), NaN where a beam had no return;
   /// others hold only returns, column by column.
   bool organized = false;
+  int rings = 16;
   int columns = 0;
   std::vector<LidarPoint> points;
 };
 
-}  // namespace ccir_mapping::core::simulation
+}  // namespace ccir_mapping::core

@@ -1,0 +1,98 @@
+#include "ccir_mapping/core/preprocess/velodyne_pcap_reader.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+#include <mrpt/config/CConfigFileMemory.h>
+#include <mrpt/hwdrivers/CVelodyneScanner.h>
+#include <mrpt/obs/CObservationVelodyneScan.h>
+#include <mrpt/obs/VelodyneCalibration.h>
+
+namespace ccir_mapping::core::preprocess {
+namespace {
+
+constexpr std::int64_t kMicrosecondsPerHour = 3600LL * 1000000LL;
+
+}  // namespace
+
+VelodynePcapReader::VelodynePcapReader(const std::string& pcap_file, const std::string& model,
+                                       Stamp start, double min_range_m)
+    : scanner_(std::make_unique<mrpt::hwdrivers::CVelodyneScanner>()),
+      file_(pcap_file),
+      start_(start),
+      min_range_m_(min_range_m) {
+  if (model != "VLP16" && model != "HDL32" && model != "HDL64") {
+    throw std::invalid_argument("unknown Velodyne model '" + model +
+                                "': allowed VLP16 | HDL32 | HDL64");
+  }
+  if (!std::filesystem::is_regular_file(pcap_file)) {
+    throw std::runtime_error("cannot read the pcap file " + pcap_file);
+  }
+  // pcap_read_fast only has a configuration key: read as fast as possible, once.
+  mrpt::config::CConfigFileMemory config;
+  config.write("velodyne", "model", model);
+  config.write("velodyne", "pcap_input", pcap_file);
+  config.write("velodyne", "pcap_read_once", std::string("true"));
+  config.write("velodyne", "pcap_read_fast", std::string("true"));
+  config.write("velodyne", "pcap_read_full_scan_delay_ms", std::string("0"));
+  try {
+    scanner_->loadConfig(config, "velodyne");
+    // The scanner starts with the VLP-16 calibration and keeps it whatever the model says.
+    scanner_->setCalibration(mrpt::obs::VelodyneCalibration::LoadDefaultCalibration(model));
+    scanner_->setPCAPVerbosity(false);
+    scanner_->initialize();
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot decode " + pcap_file + ": " + e.what());
+  }
+  // Rings count from the lowest elevation up, as the ROS driver numbers them.
+  const auto& lasers = scanner_->getCalibration().laser_corrections;
+  std::vector<int> order(lasers.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return lasers[a].verticalCorrection < lasers[b].verticalCorrection;
+  });
+  for (std::size_t ring = 0; ring < order.size(); ++ring) {
+    ring_of_laser_[order[ring]] = static_cast<std::uint16_t>(ring);
+  }
+}
+
+VelodynePcapReader::~VelodynePcapReader() = default;
+
+std::optional<LidarScan> VelodynePcapReader::next() {
+  while (true) {
+    mrpt::obs::CObservationVelodyneScan::Ptr observation;
+    mrpt::obs::CObservationGPS::Ptr gps;
+    if (!scanner_->getNextObservation(observation, gps)) return std::nullopt;  // end of file
+    if (!observation || observation->scan_packets.empty()) continue;
+
+    // The packet clock counts microseconds within the hour: stamp relative to the first scan.
+    const std::uint32_t packet_us = observation->scan_packets.front().gps_timestamp();
+    if (!first_packet_us_) first_packet_us_ = packet_us;
+    std::int64_t elapsed_us = static_cast<std::int64_t>(packet_us) - *first_packet_us_;
+    if (elapsed_us < 0) elapsed_us += kMicrosecondsPerHour;
+
+    mrpt::obs::CObservationVelodyneScan::TGeneratePointCloudParameters options;
+    options.minDistance = static_cast<float>(min_range_m_);
+    options.generatePerPointTimestamp = true;
+    observation->generatePointCloud(options);
+    const auto& cloud = observation->point_cloud;
+
+    LidarScan scan;
+    scan.stamp = start_ + elapsed_us * 1000;
+    scan.rings = rings();
+    scan.points.reserve(cloud.size());
+    for (std::size_t k = 0; k < cloud.size(); ++k) {
+      const auto ring = ring_of_laser_.find(cloud.laser_id[k]);
+      if (ring == ring_of_laser_.end()) continue;
+      const double time = mrpt::system::timeDifference(observation->timestamp, cloud.timestamp[k]);
+      scan.points.push_back(LidarPoint{cloud.x[k], cloud.y[k], cloud.z[k],
+                                       static_cast<float>(cloud.intensity[k]), ring->second,
+                                       static_cast<float>(time)});
+    }
+    return scan;
+  }
+}
+
+}  // namespace ccir_mapping::core::preprocess
