@@ -13,6 +13,7 @@
 #include <rosbag/view.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 #include <Eigen/Geometry>
 
@@ -107,6 +108,7 @@ TEST(SimulatedBag, KeyframesFollowTheRecordedOdometry) {
   // Simulated time keeps moving (as a driver's clock would) so that its diagnostics timer fires.
   double scans_in = -1.0;
   double keyframes_out = -1.0;
+  std::string ms_per_keyframe;
   ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& array) {
         for (const auto& status : array->status) {
@@ -114,6 +116,7 @@ TEST(SimulatedBag, KeyframesFollowTheRecordedOdometry) {
           for (const auto& entry : status.values) {
             if (entry.key == "in velodyne_points messages") scans_in = std::stod(entry.value);
             if (entry.key == "out keyframes messages") keyframes_out = std::stod(entry.value);
+            if (entry.key == "ms per keyframe (mean)") ms_per_keyframe = entry.value;
           }
         }
       });
@@ -131,8 +134,8 @@ TEST(SimulatedBag, KeyframesFollowTheRecordedOdometry) {
   }
   ASSERT_EQ(scans_in, static_cast<double>(scan_stamps.size())) << "scans the Preprocessor took in";
   ASSERT_EQ(keyframes_out, static_cast<double>(keyframes.size())) << "keyframes it reports";
-  ROS_INFO("%zu scans, %zu keyframes; odometry path %.2f m, turned %.2f rad", scan_stamps.size(),
-           keyframes.size(), path_m, turned_rad);
+  ROS_INFO("%zu scans, %zu keyframes (%s ms each); odometry path %.2f m, turned %.2f rad",
+           scan_stamps.size(), keyframes.size(), ms_per_keyframe.c_str(), path_m, turned_rad);
   EXPECT_GE(keyframes.size(), fewest) << "path " << path_m << " m";
   EXPECT_LE(keyframes.size(), most) << "path " << path_m << " m, turned " << turned_rad << " rad";
 
@@ -143,6 +146,18 @@ TEST(SimulatedBag, KeyframesFollowTheRecordedOdometry) {
     EXPECT_EQ(k.robot, robot);
     EXPECT_EQ(k.odom_frame, robot + "/odom");
     EXPECT_EQ(k.header.frame_id, robot + "/velodyne");
+    // The preprocessed scan: down-sampled, with unit normals facing the sensor.
+    EXPECT_EQ(k.cloud.header.frame_id, k.header.frame_id);
+    EXPECT_GT(k.cloud.width * k.cloud.height, 2000U);
+    EXPECT_LT(k.cloud.width * k.cloud.height, 28800U);
+    for (sensor_msgs::PointCloud2ConstIterator<float> p(k.cloud, "x"), n(k.cloud, "normal_x");
+         p != p.end(); ++p, ++n) {
+      const Eigen::Vector3f point(p[0], p[1], p[2]);
+      const Eigen::Vector3f normal(n[0], n[1], n[2]);
+      ASSERT_TRUE(point.allFinite());
+      ASSERT_NEAR(normal.norm(), 1.0F, 1e-3F);
+      ASSERT_LE(normal.dot(point), 1e-3F);
+    }
     ASSERT_TRUE(std::binary_search(scan_stamps.begin(), scan_stamps.end(), k.header.stamp))
         << "stamp " << k.header.stamp << " is not a scan's";
     // The pose is the recorded odometry at the scan's stamp (50 Hz odometry, 10 Hz scans: the
