@@ -59,7 +59,12 @@ int main(int argc, char** argv) {
       "none | cauchy | huber | dcs | switchable")(
       "switch", po::value<std::string>(&switch_function)->default_value(switch_function),
       "switch function: linear | sigmoid")(
-      "dcs-phi", po::value<double>(&params.dcs_phi)->default_value(params.dcs_phi), "DCS phi")(
+      "dcs-phi", po::value<double>(&params.dcs_phi)->default_value(params.dcs_phi),
+      "DCS phi in chi^2 units; 0: auto (99 % quantile / 3)")(
+      "switch-prior-sigma",
+      po::value<double>(&params.switch_prior_sigma)->default_value(params.switch_prior_sigma),
+      "switch prior sigma; 0: auto (1 / sqrt of the 99 % chi^2 quantile)")(
+      "no-chain-start", "skip the first solve with chain-inflated loop covariances")(
       "max-iterations",
       po::value<int>(&params.max_iterations)->default_value(params.max_iterations),
       "solver iterations")(
@@ -89,6 +94,7 @@ int main(int argc, char** argv) {
   outliers.mode = *mode;
   outliers.seed = static_cast<std::uint64_t>(seed);
   params.kernel = *kernel;
+  params.uncertainty_aware_start = arguments.count("no-chain-start") == 0;
   params.switch_function = switch_function == "linear" ? backend::SwitchFunction::kLinear
                                                        : backend::SwitchFunction::kSigmoid;
 

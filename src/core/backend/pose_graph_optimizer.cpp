@@ -221,7 +221,69 @@ void checkEdges(const PoseGraph& graph) {
   }
 }
 
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 }  // namespace
+
+std::vector<Information> chainInflatedInformation(const PoseGraph& graph) {
+  const int n = graph.tangentSize();
+  std::vector<const PoseGraphEdge*> odometry(graph.poses.size(), nullptr);
+  std::vector<Eigen::MatrixXd> odometry_covariance(graph.poses.size());
+  for (const auto& e : graph.edges) {
+    if (!e.loop && e.to == e.from + 1 && !odometry[static_cast<std::size_t>(e.from)]) {
+      odometry[static_cast<std::size_t>(e.from)] = &e;
+      odometry_covariance[static_cast<std::size_t>(e.from)] = e.information.inverse();
+    }
+  }
+  std::vector<Information> result;
+  for (const auto& e : graph.edges) {
+    result.push_back(e.information);
+    if (!e.loop) continue;
+    const int first = std::min(e.from, e.to);
+    const int last = std::max(e.from, e.to);
+    Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(n, n);
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+    bool chained = true;
+    for (int k = first; k < last && chained; ++k) {
+      const PoseGraphEdge* step = odometry[static_cast<std::size_t>(k)];
+      if (!step) {
+        chained = false;
+        break;
+      }
+      const Eigen::Vector3d t = r * step->measurement.translation();
+      Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
+      Eigen::MatrixXd g = Eigen::MatrixXd::Identity(n, n);
+      if (graph.dimension == 2) {
+        f(0, 2) = -t.y();
+        f(1, 2) = t.x();
+        g.topLeftCorner<2, 2>() = r.topLeftCorner<2, 2>();
+      } else {
+        f.topRightCorner<3, 3>() = -skew(t);
+        g.topLeftCorner<3, 3>() = r;
+        g.bottomRightCorner<3, 3>() = r;
+      }
+      sigma = f * sigma * f.transpose() +
+              g * odometry_covariance[static_cast<std::size_t>(k)] * g.transpose();
+      p += t;
+      r = r * step->measurement.linear();
+    }
+    if (!chained) continue;
+    if (graph.dimension == 3) {  // the residual's rotation is a perturbation at the second pose
+      Eigen::MatrixXd j = Eigen::MatrixXd::Identity(n, n);
+      j.bottomRightCorner<3, 3>() = r.transpose();
+      sigma = j * sigma * j.transpose();
+    }
+    result.back() = (e.information.inverse() + sigma).inverse();
+  }
+  return result;
+}
+
+namespace {}  // namespace
 
 void DcsLoss::Evaluate(double s, double rho[3]) const {
   if (s <= phi_) {
@@ -240,8 +302,8 @@ double DcsLoss::scale(double phi, double chi2) { return std::min(1.0, 2.0 * phi 
 
 std::vector<std::string> OptimizerParams::validate() const {
   ParamCheck check;
-  check.inHalfOpenRange("switch_prior_sigma", switch_prior_sigma, 0.0, 1000.0);
-  check.inHalfOpenRange("dcs_phi", dcs_phi, 0.0, 1e6);
+  check.inRange("switch_prior_sigma", switch_prior_sigma, 0.0, 1000.0);
+  check.inRange("dcs_phi", dcs_phi, 0.0, 1e6);
   check.inHalfOpenRange("loss_scale", loss_scale, 0.0, 1e6);
   check.inRange("max_iterations", max_iterations, 1, 100000);
   check.inHalfOpenRange("max_solve_time_s", max_solve_time_s, 0.0, 1e6);
@@ -264,8 +326,86 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
     return result;
   }
   const bool linear = params_.switch_function == SwitchFunction::kLinear;
+  const std::vector<double> initial_switches(graph.edges.size(), linear ? 1.0 : 10.0);
+  std::vector<double> switches = initial_switches;
+  const PoseGraph initial = graph;
+  solve(graph, switches, result);
+  classify(graph, switches, result);
+
+  // Most loops off can mean false loops, or true ones seen after drift larger than their
+  // covariance: try again from a first solve with chain-inflated loops and keep the solution
+  // with the lower cost (the same robust objective).
+  std::size_t loops = 0;
+  std::size_t rejected = 0;
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+    loops += graph.edges[k].loop;
+    rejected += graph.edges[k].loop && !result.inliers[k];
+  }
+  if (params_.uncertainty_aware_start && params_.kernel != RobustKernel::kNone &&
+      2 * rejected > loops) {
+    PoseGraph inflated = initial;
+    const std::vector<Information> information = chainInflatedInformation(initial);
+    for (std::size_t k = 0; k < inflated.edges.size(); ++k) {
+      inflated.edges[k].information = information[k];
+    }
+    std::vector<double> retry_switches = initial_switches;
+    OptimizationResult first;
+    solve(inflated, retry_switches, first);
+    PoseGraph retry = initial;
+    retry.poses = inflated.poses;
+    OptimizationResult second;
+    second.weights = result.weights;
+    second.inliers = result.inliers;
+    solve(retry, retry_switches, second);
+    second.iterations += first.iterations + result.iterations;
+    second.solve_s += first.solve_s + result.solve_s;
+    if (second.usable && second.final_cost < result.final_cost) {
+      second.initial_cost = result.initial_cost;
+      graph.poses = retry.poses;
+      switches = retry_switches;
+      result = second;
+      classify(graph, switches, result);
+    } else {
+      result.iterations = second.iterations;
+      result.solve_s = second.solve_s;
+    }
+  }
+  return result;
+}
+
+void PoseGraphOptimizer::classify(const PoseGraph& graph, const std::vector<double>& switches,
+                                  OptimizationResult& result) const {
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+    const PoseGraphEdge& edge = graph.edges[k];
+    if (!edge.loop) continue;
+    switch (params_.kernel) {
+      case RobustKernel::kSwitchable:
+        result.weights[k] = switchValue(switches[k], params_.switch_function);
+        result.inliers[k] = result.weights[k] >= 0.5;
+        break;
+      case RobustKernel::kDcs:
+        result.weights[k] = DcsLoss::scale(dcsPhi(graph.dimension), chi2(graph, edge));
+        result.inliers[k] = result.weights[k] >= 0.5;
+        break;
+      default:
+        result.inliers[k] = chi2(graph, edge) <= outlierChi2(graph.dimension);
+    }
+  }
+}
+
+double PoseGraphOptimizer::switchPriorSigma(int dimension) const {
+  return params_.switch_prior_sigma > 0.0 ? params_.switch_prior_sigma
+                                          : 1.0 / std::sqrt(outlierChi2(dimension));
+}
+
+double PoseGraphOptimizer::dcsPhi(int dimension) const {
+  return params_.dcs_phi > 0.0 ? params_.dcs_phi : outlierChi2(dimension) / 3.0;
+}
+
+void PoseGraphOptimizer::solve(PoseGraph& graph, std::vector<double>& switches,
+                               OptimizationResult& result) const {
+  const bool linear = params_.switch_function == SwitchFunction::kLinear;
   const double switch_start = linear ? 1.0 : 10.0;
-  std::vector<double> switches(graph.edges.size(), switch_start);
 
   Parameters parameters(graph);
   ceres::Problem problem;
@@ -284,7 +424,7 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
         parameters.addEdge(problem, dim, edge, new ceres::HuberLoss(params_.loss_scale));
         break;
       case RobustKernel::kDcs:
-        parameters.addEdge(problem, dim, edge, new DcsLoss(params_.dcs_phi));
+        parameters.addEdge(problem, dim, edge, new DcsLoss(dcsPhi(dim)));
         break;
       default: {
         const auto a = static_cast<std::size_t>(edge.from);
@@ -302,8 +442,8 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
                                    parameters.rotation[a].data(), parameters.position[b].data(),
                                    parameters.rotation[b].data(), s);
         }
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SwitchPrior, 1, 1>(new SwitchPrior{
-                                     switch_start, 1.0 / params_.switch_prior_sigma}),
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SwitchPrior, 1, 1>(
+                                     new SwitchPrior{switch_start, 1.0 / switchPriorSigma(dim)}),
                                  nullptr, s);
         // Bounds need the trust-region minimiser (the default).
         problem.SetParameterLowerBound(s, 0, linear ? 0.0 : -10.0);
@@ -331,24 +471,6 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
   result.usable = summary.IsSolutionUsable();
   result.summary = summary.BriefReport();
   parameters.writeBack(graph);
-
-  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
-    const PoseGraphEdge& edge = graph.edges[k];
-    if (!edge.loop) continue;
-    switch (params_.kernel) {
-      case RobustKernel::kSwitchable:
-        result.weights[k] = switchValue(switches[k], params_.switch_function);
-        result.inliers[k] = result.weights[k] >= 0.5;
-        break;
-      case RobustKernel::kDcs:
-        result.weights[k] = DcsLoss::scale(params_.dcs_phi, chi2(graph, edge));
-        result.inliers[k] = result.weights[k] >= 0.5;
-        break;
-      default:
-        result.inliers[k] = chi2(graph, edge) <= outlierChi2(dim);
-    }
-  }
-  return result;
 }
 
 double PoseGraphOptimizer::chi2(const PoseGraph& graph, const PoseGraphEdge& edge) {

@@ -18,12 +18,21 @@ struct OptimizerParams {
   /// Linear psi(s) = s with s in [0, 1], prior 1 (default); sigmoid psi(s) = 1 / (1 + e^-s) with
   /// s in [-10, 10], prior 10.
   SwitchFunction switch_function = SwitchFunction::kLinear;
-  double switch_prior_sigma = 1.0;
-  /// DCS phi, in chi^2 units.
-  double dcs_phi = 1.0;
+  /// Standard deviation of the switch prior. A linear switch settles at phi / (phi + chi^2)
+  /// with phi = 1 / sigma^2, so 0 (auto) picks phi = the 99 % chi^2 quantile of the edge's
+  /// dimension: a loop as likely as its covariance says stays on (1 rejects every loop with
+  /// chi^2 > 1, including most true ones when informations are honest).
+  double switch_prior_sigma = 0.0;
+  /// DCS phi, in chi^2 units; 0 (auto) puts the scale's 0.5 crossing (chi^2 = 3 phi) at the
+  /// 99 % quantile.
+  double dcs_phi = 0.0;
   /// Scale of the Cauchy and Huber losses, on the whitened residual norm.
   double loss_scale = 1.0;
   int max_iterations = 200;
+  /// When a solve turns most loops off, solve again starting from a solve with each loop's
+  /// covariance inflated by the odometry uncertainty between its poses (true loops seen after
+  /// long drift are then not switched off at the drifted guess) and keep the lower cost.
+  bool uncertainty_aware_start = true;
   double max_solve_time_s = 600.0;
   int threads = 1;
 
@@ -43,6 +52,12 @@ struct OptimizationResult {
   std::vector<bool> inliers;
   std::string summary;
 };
+
+/// Each edge's information, loops' with their covariance inflated by the odometry uncertainty
+/// accumulated along the chain between their poses (propagated in the frame of the first, as
+/// the residual is): at a drifted guess a true loop then looks as likely as it is (Dong et al.,
+/// ICRA 2015, within one robot). Loops without an odometry chain keep their information.
+std::vector<Information> chainInflatedInformation(const PoseGraph& graph);
 
 class PoseGraphOptimizer {
  public:
@@ -70,6 +85,14 @@ class PoseGraphOptimizer {
   const OptimizerParams& params() const { return params_; }
 
  private:
+  double switchPriorSigma(int dimension) const;
+  double dcsPhi(int dimension) const;
+  /// Fills result.weights and result.inliers for the loops.
+  void classify(const PoseGraph& graph, const std::vector<double>& switches,
+                OptimizationResult& result) const;
+  /// One Ceres solve from the graph's poses and `switches` (updated in place).
+  void solve(PoseGraph& graph, std::vector<double>& switches, OptimizationResult& result) const;
+
   OptimizerParams params_;
 };
 

@@ -1,0 +1,354 @@
+// Pose-graph back end: residuals zero at the truth, Ceres' GradientChecker on the switchable
+// edges, the DCS loss's derivatives, g2o round trips and conventions, the gauge, outlier
+// injection, and robust solves on synthetic graphs with false loop closures.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include "ccir_mapping/core/backend/dcs_loss.h"
+#include "ccir_mapping/core/backend/g2o_io.h"
+#include "ccir_mapping/core/backend/outlier_injector.h"
+#include "ccir_mapping/core/backend/pose_graph_optimizer.h"
+#include "ccir_mapping/core/backend/trajectory_error.h"
+
+namespace ccir_mapping::core::backend {
+namespace {
+
+Pose3 pose(double x, double y, double z, double yaw, double pitch = 0.0, double roll = 0.0) {
+  Pose3 p = Pose3::Identity();
+  p.translation() << x, y, z;
+  p.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  return p;
+}
+
+/// A robot driving laps of a square block (2D) or a helix-like path (3D): odometry with noise,
+/// a loop closure to the same place one lap earlier, and the true poses.
+struct Synthetic {
+  PoseGraph graph;
+  std::vector<Pose3> truth;
+};
+
+Synthetic laps(int dimension, int laps, int side, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, noise);
+  Synthetic s;
+  s.graph.dimension = dimension;
+  const int per_lap = 4 * side;
+  for (int k = 0; k < laps * per_lap; ++k) {
+    const int corner = (k % per_lap) / side;
+    const int along = k % side;
+    const double xs[4] = {double(along), double(side), double(side - along), 0.0};
+    const double ys[4] = {0.0, double(along), double(side), double(side - along)};
+    const double z = dimension == 3 ? 0.05 * k : 0.0;
+    s.truth.push_back(pose(xs[corner], ys[corner], z, corner * M_PI / 2));
+  }
+  const int size = s.graph.tangentSize();
+  auto noisy = [&](const Pose3& m) {
+    return m * pose(n(rng), n(rng), dimension == 3 ? n(rng) : 0.0, n(rng),
+                    dimension == 3 ? n(rng) : 0.0, dimension == 3 ? n(rng) : 0.0);
+  };
+  const Information info = Information::Identity(size, size) / (noise * noise);
+  for (std::size_t k = 1; k < s.truth.size(); ++k) {
+    s.graph.edges.push_back(
+        {int(k - 1), int(k), noisy(s.truth[k - 1].inverse() * s.truth[k]), info, false, false});
+  }
+  for (std::size_t k = per_lap; k < s.truth.size(); k += 3) {
+    s.graph.edges.push_back({int(k - per_lap), int(k),
+                             noisy(s.truth[k - per_lap].inverse() * s.truth[k]), info, true,
+                             false});
+  }
+  // Initial guess: chained odometry (drifting).
+  s.graph.poses.push_back(s.truth.front());
+  for (const auto& e : s.graph.edges) {
+    if (!e.loop) s.graph.poses.push_back(s.graph.poses.back() * e.measurement);
+  }
+  return s;
+}
+
+TEST(PoseGraph, ResidualsAreZeroAtTheTruth) {
+  for (int dimension : {2, 3}) {
+    Synthetic s = laps(dimension, 2, 5, 0.0001, 1);
+    for (auto& e : s.graph.edges) {
+      e.measurement = s.truth[e.from].inverse() * s.truth[e.to];
+    }
+    s.graph.poses = s.truth;
+    for (const auto& e : s.graph.edges) {
+      ASSERT_NEAR(PoseGraphOptimizer::chi2(s.graph, e), 0.0, 1e-12) << dimension;
+    }
+  }
+}
+
+TEST(PoseGraph, PlainSolveRecoversTheTruthWithoutOutliers) {
+  for (int dimension : {2, 3}) {
+    Synthetic s = laps(dimension, 3, 6, 0.01, 2);
+    const double drifted = absoluteTrajectoryError(s.graph.poses, s.truth);
+    OptimizerParams params;
+    params.kernel = RobustKernel::kNone;
+    const auto result = PoseGraphOptimizer(params).optimize(s.graph);
+    EXPECT_TRUE(result.usable);
+    EXPECT_LT(result.final_cost, result.initial_cost);
+    const double ate = absoluteTrajectoryError(s.graph.poses, s.truth);
+    EXPECT_LT(ate, 0.05) << dimension;
+    EXPECT_LT(ate, drifted) << dimension;
+    EXPECT_TRUE(s.graph.poses.front().isApprox(s.truth.front(), 1e-12));  // the gauge
+  }
+}
+
+TEST(PoseGraph, ChainInflationMakesDriftedTrueLoopsLikely) {
+  for (int dimension : {2, 3}) {
+    const Synthetic s = laps(dimension, 3, 6, 0.01, 3);
+    const auto inflated = chainInflatedInformation(s.graph);
+    double raw = 0.0;
+    double chained = 0.0;
+    int loops = 0;
+    for (std::size_t k = 0; k < s.graph.edges.size(); ++k) {
+      if (!s.graph.edges[k].loop) continue;
+      PoseGraph g = s.graph;
+      raw += PoseGraphOptimizer::chi2(g, g.edges[k]);
+      g.edges[k].information = inflated[k];
+      chained += PoseGraphOptimizer::chi2(g, g.edges[k]);
+      ++loops;
+    }
+    std::printf("dimension %d: mean loop chi2 %.1f raw, %.1f chain-inflated\n", dimension,
+                raw / loops, chained / loops);
+    EXPECT_LT(chained / loops, 3.0 * s.graph.tangentSize()) << dimension;
+    EXPECT_GT(raw / loops, 10.0 * chained / loops) << dimension;
+  }
+}
+
+TEST(PoseGraph, SwitchableConstraintsRejectFalseLoopsWhereLeastSquaresFails) {
+  for (int dimension : {2, 3}) {
+    Synthetic s = laps(dimension, 3, 6, 0.01, 3);
+    OptimizerParams plain;
+    plain.kernel = RobustKernel::kNone;
+    PoseGraph clean = s.graph;
+    PoseGraphOptimizer(plain).optimize(clean);
+    const double clean_ate = absoluteTrajectoryError(clean.poses, s.truth);
+
+    OutlierParams outliers;
+    outliers.count = 20;
+    outliers.seed = 4;
+    injectOutliers(s.graph, outliers);
+    PoseGraph least_squares = s.graph;
+    PoseGraphOptimizer(plain).optimize(least_squares);
+    for (RobustKernel kernel : {RobustKernel::kSwitchable, RobustKernel::kDcs}) {
+      OptimizerParams params;
+      params.kernel = kernel;
+      PoseGraph robust = s.graph;
+      const auto result = PoseGraphOptimizer(params).optimize(robust);
+      const double ate = absoluteTrajectoryError(robust.poses, s.truth);
+      // Every false loop off; true loops are as likely as their covariance says, so at the 99 %
+      // threshold a few may go too.
+      int true_loops = 0;
+      int true_kept = 0;
+      for (std::size_t k = 0; k < robust.edges.size(); ++k) {
+        if (!robust.edges[k].loop) continue;
+        if (robust.edges[k].outlier) {
+          EXPECT_FALSE(result.inliers[k]) << dimension << " " << toString(kernel) << " edge " << k;
+        } else {
+          ++true_loops;
+          true_kept += result.inliers[k];
+        }
+      }
+      EXPECT_GE(true_kept, 0.75 * true_loops) << dimension << " " << toString(kernel);
+      EXPECT_LT(ate, 2.5 * clean_ate + 0.01) << dimension << " " << toString(kernel);
+    }
+    EXPECT_GT(absoluteTrajectoryError(least_squares.poses, s.truth), 5 * clean_ate) << dimension;
+  }
+}
+
+TEST(PoseGraph, SigmoidSwitchesAndLossesRun) {
+  Synthetic s = laps(2, 2, 5, 0.01, 5);
+  injectOutliers(s.graph, OutlierParams{5});
+  for (RobustKernel kernel : {RobustKernel::kCauchy, RobustKernel::kHuber}) {
+    OptimizerParams params;
+    params.kernel = kernel;
+    PoseGraph g = s.graph;
+    EXPECT_TRUE(PoseGraphOptimizer(params).optimize(g).usable);
+  }
+  OptimizerParams sigmoid;
+  sigmoid.switch_function = SwitchFunction::kSigmoid;
+  PoseGraph g = s.graph;
+  const auto result = PoseGraphOptimizer(sigmoid).optimize(g);
+  EXPECT_TRUE(result.usable);
+  for (double w : result.weights) {
+    EXPECT_GE(w, 0.0);
+    EXPECT_LE(w, 1.0);
+  }
+}
+
+TEST(DcsLoss, ContinuousWithConsistentDerivatives) {
+  const double phi = 1.3;
+  const DcsLoss loss(phi);
+  for (double s : {0.0, 0.5, phi - 1e-9, phi, phi + 1e-9, 2.0, 10.0, 1e3}) {
+    double rho[3];
+    double up[3];
+    double down[3];
+    loss.Evaluate(s, rho);
+    const double h = 1e-6;
+    loss.Evaluate(s + h, up);
+    loss.Evaluate(std::max(0.0, s - h), down);
+    const double step = s + h - std::max(0.0, s - h);
+    if (std::abs(s - phi) > 1e-6) {
+      EXPECT_NEAR(rho[1], (up[0] - down[0]) / step, 1e-5) << s;
+      EXPECT_NEAR(rho[2], (up[1] - down[1]) / step, 1e-5) << s;
+    } else {
+      EXPECT_NEAR(up[0], down[0], 1e-5);  // continuous across phi
+      EXPECT_NEAR(up[1], down[1], 1e-5);
+    }
+    EXPECT_LE(rho[0], 3 * phi + 1e-12);
+    EXPECT_NEAR(rho[1], std::pow(DcsLoss::scale(phi, s), 2), 1e-12) << s;
+  }
+}
+
+TEST(G2o, RoundTripKeepsEverythingIncludingTheQuaternionInformationConvention) {
+  const auto path =
+      std::filesystem::temp_directory_path() / ("ccir_g2o_" + std::to_string(::getpid()));
+  for (int dimension : {2, 3}) {
+    Synthetic s = laps(dimension, 2, 4, 0.01, 6);
+    // A full, non-diagonal information matrix.
+    const int n = s.graph.tangentSize();
+    Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
+    s.graph.edges[3].information = a * a.transpose() + Eigen::MatrixXd::Identity(n, n);
+    writeG2o(s.graph, path.string());
+    const PoseGraph back = readG2o(path.string());
+    ASSERT_EQ(back.dimension, dimension);
+    ASSERT_EQ(back.poses.size(), s.graph.poses.size());
+    ASSERT_EQ(back.edges.size(), s.graph.edges.size());
+    for (std::size_t i = 0; i < back.poses.size(); ++i) {
+      ASSERT_TRUE(back.poses[i].isApprox(s.graph.poses[i], 1e-9)) << i;
+    }
+    for (std::size_t k = 0; k < back.edges.size(); ++k) {
+      EXPECT_EQ(back.edges[k].loop, s.graph.edges[k].loop);
+      EXPECT_TRUE(back.edges[k].measurement.isApprox(s.graph.edges[k].measurement, 1e-9));
+      EXPECT_TRUE(back.edges[k].information.isApprox(s.graph.edges[k].information, 1e-9));
+    }
+    // Noiseless measurements read back give zero residual at the written poses.
+    PoseGraph exact = back;
+    for (auto& e : exact.edges) e.measurement = exact.poses[e.from].inverse() * exact.poses[e.to];
+    writeG2o(exact, path.string());
+    const PoseGraph again = readG2o(path.string());
+    EXPECT_NEAR(PoseGraphOptimizer::plainCost(again), 0.0, 1e-9);
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(G2o, QuaternionInformationIsScaledToRotationVectorUnitsAndChainedWithoutVertices) {
+  const auto path =
+      std::filesystem::temp_directory_path() / ("ccir_q_" + std::to_string(::getpid()));
+  {
+    std::ofstream out(path);
+    out << "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1  10 0 0 0 0 0 10 0 0 0 0 10 0 0 0 400 0 0 400 0 400\n"
+           "EDGE_SE3:QUAT 1 2 1 0 0 0 0 0.7071067811865476 0.7071067811865476"
+           "  10 0 0 0 0 0 10 0 0 0 0 10 0 0 0 400 0 0 400 0 400\n"
+           "EDGE_SE3:QUAT 0 2 2 0 0 0 0 0 1  1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n";
+  }
+  const PoseGraph graph = readG2o(path.string());
+  ASSERT_EQ(graph.poses.size(), 3U);
+  EXPECT_NEAR(graph.edges[0].information(0, 0), 10.0, 1e-12);
+  EXPECT_NEAR(graph.edges[0].information(3, 3), 100.0, 1e-12);  // 400 / 4
+  EXPECT_FALSE(graph.edges[0].loop);
+  EXPECT_TRUE(graph.edges[2].loop);
+  EXPECT_TRUE(graph.poses[2].translation().isApprox(Eigen::Vector3d(2, 0, 0), 1e-12));
+  std::filesystem::remove(path);
+  EXPECT_THROW(readG2o("/nonexistent.g2o"), std::runtime_error);
+  {
+    std::ofstream out(path);
+    out << "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0\n";
+  }
+  try {
+    readG2o(path.string());
+    ADD_FAILURE() << "a truncated edge was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(":2:"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(PoseGraph, CovariancesNeedTheGaugeAndGrowAlongTheChain) {
+  Synthetic s = laps(3, 1, 6, 0.01, 7);
+  s.graph.edges.erase(std::remove_if(s.graph.edges.begin(), s.graph.edges.end(),
+                                     [](const auto& e) { return e.loop; }),
+                      s.graph.edges.end());
+  const PoseGraphOptimizer optimizer{OptimizerParams{}};
+  const auto covariances = optimizer.marginalCovariances(s.graph, {1, 10, 20});
+  ASSERT_TRUE(covariances);
+  ASSERT_EQ(covariances->size(), 3U);
+  const double near = (*covariances)[0].topLeftCorner<3, 3>().trace();
+  const double far = (*covariances)[2].topLeftCorner<3, 3>().trace();
+  EXPECT_GT(far, 5 * near);
+  // One odometry step of sigma 0.01: position variance ~1e-4 per axis after the first step.
+  EXPECT_NEAR((*covariances)[0](0, 0), 1e-4, 3e-5);
+  EXPECT_NEAR((*covariances)[0](5, 5), 1e-4, 3e-5);                // rotation vector, radians
+  const auto fixed = optimizer.marginalCovariances(s.graph, {0});  // the gauge: no uncertainty
+  ASSERT_TRUE(fixed);
+  EXPECT_NEAR(fixed->front().norm(), 0.0, 1e-12);
+}
+
+TEST(Outliers, InjectionFollowsTheConvention) {
+  Synthetic s = laps(2, 3, 6, 0.01, 8);
+  const std::size_t before = s.graph.edges.size();
+  OutlierParams grouped;
+  grouped.count = 30;
+  grouped.mode = OutlierMode::kGrouped;
+  grouped.group_size = 10;
+  injectOutliers(s.graph, grouped);
+  ASSERT_EQ(s.graph.edges.size(), before + 30);
+  for (std::size_t k = before; k < s.graph.edges.size(); ++k) {
+    const auto& e = s.graph.edges[k];
+    EXPECT_TRUE(e.loop && e.outlier);
+    EXPECT_NE(std::abs(e.to - e.from), 1);
+    if ((k - before) % 10 != 0) {  // groups: consecutive pairs, one shared measurement
+      EXPECT_EQ(e.from, s.graph.edges[k - 1].from + 1);
+      EXPECT_TRUE(e.measurement.isApprox(s.graph.edges[k - 1].measurement));
+    }
+  }
+  Synthetic t = laps(2, 3, 6, 0.01, 8);
+  OutlierParams local;
+  local.count = 50;
+  local.mode = OutlierMode::kLocal;
+  injectOutliers(t.graph, local);
+  for (std::size_t k = before; k < t.graph.edges.size(); ++k) {
+    EXPECT_LE(t.graph.edges[k].to - t.graph.edges[k].from, 20);
+    EXPECT_GE(t.graph.edges[k].to - t.graph.edges[k].from, 2);
+  }
+}
+
+TEST(Backend, RealGraphsWhenAvailable) {
+  const char* dir = std::getenv("CCIR_DATA_DIR");
+  const auto root = std::filesystem::path(dir ? dir : CCIR_DEFAULT_DATA_DIR) / "posegraphs";
+  if (!std::filesystem::exists(root / "manhattanOlson3500.g2o")) {
+    GTEST_SKIP() << "SKIPPED: " << root << " not found (set CCIR_DATA_DIR)";
+  }
+  PoseGraph graph = readG2o((root / "manhattanOlson3500.g2o").string());
+  EXPECT_EQ(graph.poses.size(), 3500U);
+  EXPECT_EQ(graph.edges.size(), 5598U);
+  EXPECT_EQ(graph.loopCount(), 5598U - 3499U);
+  OptimizerParams plain;
+  plain.kernel = RobustKernel::kNone;
+  PoseGraphOptimizer(plain).optimize(graph);
+  // The known least-squares optimum of M3500: chi^2 ~ 146.
+  EXPECT_NEAR(PoseGraphOptimizer::plainCost(graph), 146.1, 1.0);
+  const auto truth = readGroundTruth((root / "manhattanOlson3500_gt_poses.txt").string(), 2);
+  EXPECT_LT(absoluteTrajectoryError(graph.poses, truth), 1.0);
+
+  const PoseGraph kitti = readG2o((root / "kitti_00.g2o").string());  // no vertex lines
+  EXPECT_EQ(kitti.poses.size(), 4541U);
+  EXPECT_EQ(kitti.loopCount(), 137U);
+  const PoseGraph sphere = readG2o((root / "sphere2500.g2o").string());
+  EXPECT_EQ(sphere.dimension, 3);
+  EXPECT_NEAR(sphere.edges.front().information(3, 3), 400.021 / 4, 1e-6);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::backend
