@@ -8,10 +8,9 @@
 
 #include "ccir_mapping/core/backend/backend_params.h"
 #include "ccir_mapping/core/backend/pose_graph.h"
+#include "ccir_mapping/core/backend/pose_graph_residuals.h"
 
 namespace ccir_mapping::core::backend {
-
-enum class SwitchFunction { kLinear, kSigmoid };
 
 struct OptimizerParams {
   RobustKernel kernel = RobustKernel::kSwitchable;
