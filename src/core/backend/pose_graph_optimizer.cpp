@@ -280,6 +280,26 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
       result.solve_s = second.solve_s;
     }
   }
+  if (params_.refine_inliers && params_.kernel != RobustKernel::kNone) {
+    // Loops kept only partly on still pull a little: finish with the kept loops at full weight
+    // and the rejected ones out.
+    PoseGraph kept = graph;
+    kept.edges.clear();
+    for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+      if (result.inliers[k]) {
+        kept.edges.push_back(graph.edges[k]);
+        kept.edges.back().loop = false;  // plain
+      }
+    }
+    std::vector<double> unused(kept.edges.size(), 1.0);
+    OptimizationResult refined;
+    solve(kept, unused, refined);
+    if (refined.usable) {
+      graph.poses = kept.poses;
+      result.iterations += refined.iterations;
+      result.solve_s += refined.solve_s;
+    }
+  }
   return result;
 }
 

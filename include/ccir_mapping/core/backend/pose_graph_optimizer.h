@@ -32,6 +32,8 @@ struct OptimizerParams {
   /// covariance inflated by the odometry uncertainty between its poses (true loops seen after
   /// long drift are then not switched off at the drifted guess) and keep the lower cost.
   bool uncertainty_aware_start = true;
+  /// Finish with a plain solve over the loops kept as inliers (rejected ones left out).
+  bool refine_inliers = true;
   double max_solve_time_s = 600.0;
   int threads = 1;
 
