@@ -1,85 +1,266 @@
-// Backend: keyframes + loop closures -> trajectory, team transforms, map -> odom on tf. Until
-// the pose-graph core lands the trajectory is the odometry of the keyframes and map = odom.
+// Backend: keyframes + loop closures -> optimised trajectory, map -> odom and team transforms on
+// tf, TeamTransform messages, pose uncertainty. Thin: callbacks only queue their input; a worker
+// thread owns the core TeamGraph and optimises at optimize_period_s (and as soon as a loop closure
+// arrives), so no solve ever holds a manager thread.
+#include <condition_variable>
+#include <deque>
 #include <mutex>
+#include <thread>
+#include <variant>
 
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Path.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/LoopClosure.h"
 #include "ccir_mapping/TeamTransform.h"
+#include "ccir_mapping/core/backend/team_graph.h"
+#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
 namespace ccir_mapping {
 
+using core::backend::TeamGraph;
+
 class BackendNodelet final : public PipelineNodelet {
+ public:
+  ~BackendNodelet() override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    if (worker_.joinable()) worker_.join();
+  }
+
  private:
+  struct OwnKeyframe {
+    core::KeyframeId id;
+    core::Stamp stamp;
+    core::Pose3 pose;
+  };
+  struct PeerKeyframe {
+    std::string robot;
+    core::KeyframeId id;
+    core::Pose3 pose;
+  };
+  using Input = std::variant<OwnKeyframe, PeerKeyframe, core::backend::LoopClosureData>;
+
   void onInit() override {
     if (!loadSettings(settings_)) return;
+    graph_ = std::make_unique<TeamGraph>(settings_.frames.robot_name, settings_.core);
     ros::NodeHandle& nh = getNodeHandle();
     trajectory_pub_ = nh.advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     team_pub_ = nh.advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
+    uncertainty_pub_ =
+        nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_uncertainty", 1);
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &BackendNodelet::onKeyframe, this);
+    peer_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
+                             &BackendNodelet::onPeerKeyframe, this);
     loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kMessageQueueSize,
                              &BackendNodelet::onLoopClosure, this);
-    timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.optimize_period_s),
-                                  &BackendNodelet::onTimer, this);
+    worker_ = std::thread([this] { run(); });
+  }
+
+  void queue(Input input, bool urgent) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      inputs_.push_back(std::move(input));
+      urgent_ = urgent_ || urgent;
+    }
+    if (urgent) wake_.notify_one();
   }
 
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
     count("in keyframes");
-    geometry_msgs::PoseStamped pose;
-    pose.header.stamp = keyframe->header.stamp;
-    pose.header.frame_id = settings_.frames.map_frame;
-    pose.pose = keyframe->odom_pose;
-    std::lock_guard<std::mutex> lock(mutex_);
-    poses_.push_back(pose);
-    latest_stamp_ = keyframe->header.stamp;
-    dirty_ = true;
+    const auto pose = conversions::toPose(keyframe->odom_pose);
+    if (!pose || keyframe->robot != settings_.frames.robot_name) {
+      NODELET_WARN_THROTTLE(5.0, "dropping keyframe %lu of '%s': %s",
+                            static_cast<unsigned long>(keyframe->id), keyframe->robot.c_str(),
+                            pose ? "not this robot's" : "its pose is not finite");
+      count("dropped keyframes");
+      return;
+    }
+    queue(OwnKeyframe{keyframe->id, conversions::toStamp(keyframe->header.stamp), *pose}, false);
   }
 
-  void onLoopClosure(const LoopClosure::ConstPtr&) { count("in loop_closures"); }
+  void onPeerKeyframe(const Keyframe::ConstPtr& keyframe) {
+    count("in inbox/scans");
+    const auto pose = conversions::toPose(keyframe->odom_pose);
+    if (!pose || keyframe->robot == settings_.frames.robot_name || keyframe->robot.empty()) {
+      NODELET_WARN_THROTTLE(5.0, "dropping a teammate's keyframe from '%s': %s",
+                            keyframe->robot.c_str(),
+                            pose ? "not a teammate's" : "its pose is not finite");
+      count("dropped inbox/scans");
+      return;
+    }
+    queue(PeerKeyframe{keyframe->robot, keyframe->id, *pose}, false);
+  }
 
-  void onTimer(const ros::SteadyTimerEvent&) {
-    boost::shared_ptr<nav_msgs::Path> path;
-    ros::Time stamp;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!dirty_) return;
-      dirty_ = false;
-      path = boost::make_shared<nav_msgs::Path>();
-      path->header.frame_id = settings_.frames.map_frame;
-      path->header.stamp = latest_stamp_;
-      path->poses = poses_;
-      stamp = latest_stamp_;
+  void onLoopClosure(const LoopClosure::ConstPtr& msg) {
+    count("in loop_closures");
+    const auto pose = conversions::toPose(msg->relative_pose);
+    core::backend::LoopClosureData loop;
+    loop.robot_from = msg->robot_from;
+    loop.keyframe_from = msg->keyframe_from;
+    loop.robot_to = msg->robot_to;
+    loop.keyframe_to = msg->keyframe_to;
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) loop.covariance(r, c) = msg->covariance[r * 6 + c];
+    }
+    const Eigen::LLT<core::alignment::Matrix6> llt(loop.covariance);
+    const bool mine = loop.robot_from == settings_.frames.robot_name ||
+                      loop.robot_to == settings_.frames.robot_name;
+    if (!pose || llt.info() != Eigen::Success || !mine) {
+      NODELET_WARN_THROTTLE(5.0, "dropping loop closure %s/%lu -> %s/%lu: %s",
+                            msg->robot_from.c_str(), static_cast<unsigned long>(msg->keyframe_from),
+                            msg->robot_to.c_str(), static_cast<unsigned long>(msg->keyframe_to),
+                            !pose   ? "relative pose not finite"
+                            : !mine ? "it does not involve this robot"
+                                    : "covariance not positive definite");
+      count("dropped loop_closures");
+      return;
+    }
+    loop.relative = *pose;
+    queue(loop, true);
+  }
+
+  // The worker: owns graph_, optimises when there is something new.
+  void run() {
+    const auto period = std::chrono::duration<double>(settings_.core.optimize_period_s);
+    while (true) {
+      std::deque<Input> inputs;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait_for(lock, period, [this] { return stop_ || urgent_; });
+        if (stop_) return;
+        urgent_ = false;
+        inputs.swap(inputs_);
+      }
+      if (inputs.empty()) continue;
+      for (const Input& input : inputs) apply(input);
+      publish(graph_->optimize());
+    }
+  }
+
+  void apply(const Input& input) {
+    if (const auto* own = std::get_if<OwnKeyframe>(&input)) {
+      if (!graph_->addKeyframe(own->id, own->stamp, own->pose)) {
+        NODELET_WARN_THROTTLE(5.0, "keyframe %lu ignored: ids must increase",
+                              static_cast<unsigned long>(own->id));
+      }
+    } else if (const auto* peer = std::get_if<PeerKeyframe>(&input)) {
+      graph_->addPeerKeyframe(peer->robot, peer->id, peer->pose);
+    } else {
+      graph_->addLoopClosure(std::get<core::backend::LoopClosureData>(input));
+    }
+  }
+
+  void publish(const core::backend::BackendSnapshot& snapshot) {
+    if (snapshot.poses.empty()) return;
+    const ros::Time stamp = conversions::toRosTime(snapshot.stamps.back());
+    auto path = boost::make_shared<nav_msgs::Path>();
+    path->header.frame_id = settings_.frames.map_frame;
+    path->header.stamp = stamp;
+    for (std::size_t i = 0; i < snapshot.poses.size(); ++i) {
+      geometry_msgs::PoseStamped pose;
+      pose.header.frame_id = settings_.frames.map_frame;
+      pose.header.stamp = conversions::toRosTime(snapshot.stamps[i]);
+      pose.pose = conversions::toPoseMsg(snapshot.poses[i]);
+      path->poses.push_back(pose);
     }
     count("out trajectory");
     trajectory_pub_.publish(path);
+
+    std::vector<geometry_msgs::TransformStamped> transforms;
     if (settings_.publish_tf) {
       geometry_msgs::TransformStamped map_to_odom;
       map_to_odom.header.stamp = stamp;
       map_to_odom.header.frame_id = settings_.frames.map_frame;
       map_to_odom.child_frame_id = settings_.frames.odom_frame;
-      map_to_odom.transform.rotation.w = 1.0;
-      tf_broadcaster_.sendTransform(map_to_odom);
+      map_to_odom.transform =
+          conversions::toTransformMsg(snapshot.poses.back() * snapshot.latest_odom_pose.inverse());
+      transforms.push_back(map_to_odom);
     }
+    for (const auto& estimate : snapshot.team) {
+      const auto& a = estimate.alignment;
+      auto msg = boost::make_shared<TeamTransform>();
+      msg->header.stamp = stamp;
+      msg->header.frame_id = settings_.frames.map_frame;
+      msg->peer = estimate.peer;
+      msg->child_frame_id = estimate.peer + "/map";
+      msg->valid = a.found;
+      msg->transform = conversions::toTransformMsg(a.transform);
+      for (int r = 0; r < 6; ++r) {
+        for (int c = 0; c < 6; ++c) msg->covariance[r * 6 + c] = a.covariance(r, c);
+      }
+      msg->inliers = static_cast<std::uint32_t>(a.inlier_count);
+      msg->candidates = static_cast<std::uint32_t>(estimate.candidates);
+      msg->margin = a.runner_up_inliers > 0 ? double(a.inlier_count) / a.runner_up_inliers
+                                            : double(a.inlier_count);
+      count("out team_transforms");
+      team_pub_.publish(msg);
+      if (a.found && settings_.publish_tf) {
+        geometry_msgs::TransformStamped team;
+        team.header = msg->header;
+        team.child_frame_id = msg->child_frame_id;
+        team.transform = msg->transform;
+        transforms.push_back(team);
+      }
+      if (!a.found)
+        NODELET_DEBUG("no transform to %s yet: %s", estimate.peer.c_str(), a.reason.c_str());
+    }
+    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+
+    if (uncertainty_pub_.getNumSubscribers() > 0) {
+      if (const auto covariance = graph_->covariances({snapshot.ids.back()})) {
+        auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+        msg->header = path->header;
+        msg->pose.pose = path->poses.back().pose;
+        for (int r = 0; r < 6; ++r) {
+          for (int c = 0; c < 6; ++c) msg->pose.covariance[r * 6 + c] = covariance->front()(r, c);
+        }
+        uncertainty_pub_.publish(msg);
+      }
+    }
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    last_solve_s_ = snapshot.solve_s;
+    intra_loops_ = snapshot.intra_loops;
+    intra_rejected_ = snapshot.intra_loops_rejected;
+  }
+
+  void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    status.addf("last optimisation s", "%.3f", last_solve_s_);
+    status.add("intra-robot loops", intra_loops_);
+    status.add("intra-robot loops rejected", intra_rejected_);
   }
 
   ros_params::BackendSettings settings_;
-  std::mutex mutex_;
-  std::vector<geometry_msgs::PoseStamped> poses_;
-  ros::Time latest_stamp_;
-  bool dirty_ = false;
+  std::unique_ptr<TeamGraph> graph_;  // the worker's
+  std::mutex mutex_;                  // guards what callbacks hand to the worker
+  std::condition_variable wake_;
+  std::deque<Input> inputs_;
+  bool urgent_ = false;
+  bool stop_ = false;
+  std::thread worker_;
+  std::mutex stats_mutex_;
+  double last_solve_s_ = 0.0;
+  int intra_loops_ = 0;
+  int intra_rejected_ = 0;
   ros::Publisher trajectory_pub_;
   ros::Publisher team_pub_;
+  ros::Publisher uncertainty_pub_;
   ros::Subscriber keyframe_sub_;
+  ros::Subscriber peer_sub_;
   ros::Subscriber loop_sub_;
-  ros::SteadyTimer timer_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 };
 

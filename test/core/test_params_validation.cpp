@@ -61,10 +61,13 @@ TEST(ParamsValidation, Matcher) {
 
 TEST(ParamsValidation, Backend) {
   backend::BackendParams p;
-  p.switch_prior_sigma = 0.0;
+  EXPECT_TRUE(p.validate().empty());  // switch_prior_sigma 0 means auto
+  p.switch_prior_sigma = -1.0;
   p.max_iterations = 0;
+  p.min_team_inliers = 2;
   const auto errors = p.validate();
-  EXPECT_TRUE(mentions(errors, "switch_prior_sigma = 0"));
+  EXPECT_TRUE(mentions(errors, "switch_prior_sigma = -1"));
+  EXPECT_TRUE(mentions(errors, "min_team_inliers = 2"));
   EXPECT_TRUE(mentions(errors, "max_iterations = 0"));
   for (const char* name : {"switchable", "none", "cauchy", "huber", "dcs"}) {
     const auto kernel = backend::parseRobustKernel(name);

@@ -17,8 +17,17 @@ const char* toString(RobustKernel kernel);
 
 struct BackendParams {
   RobustKernel robust_kernel = RobustKernel::kSwitchable;
-  /// Standard deviation of the prior that pulls each switch variable towards 1.
-  double switch_prior_sigma = 1.0;
+  /// Standard deviation of the prior that pulls each switch variable towards 1; 0: auto (a loop
+  /// as likely as its covariance says stays on, see pose_graph_optimizer.h).
+  double switch_prior_sigma = 0.0;
+  /// Odometry between keyframes: standard deviation per metre travelled (position, per axis,
+  /// and heading); floors of 1 cm and 0.1 deg keep short steps from being over-confident.
+  double odom_sigma_m_per_m = 0.05;
+  double odom_sigma_rad_per_m = 0.01;
+  /// A team transform needs this many inter-robot loop closures agreeing, and this many more
+  /// than any other transform.
+  int min_team_inliers = 10;
+  int team_inlier_margin = 3;
   /// The graph is re-optimised at this period (and when a loop closure arrives).
   double optimize_period_s = 1.0;
   /// Upper bound on one optimisation's wall time.

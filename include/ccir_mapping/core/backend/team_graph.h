@@ -1,0 +1,80 @@
+// One robot's back end: its keyframes and intra-robot loop closures as a robust pose graph, and
+// per teammate the transform between their frames from inter-robot loop closures (EM).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/alignment/frame_alignment.h"
+#include "ccir_mapping/core/backend/backend_params.h"
+#include "ccir_mapping/core/backend/pose_graph_optimizer.h"
+
+namespace ccir_mapping::core::backend {
+
+struct LoopClosureData {
+  std::string robot_from;
+  KeyframeId keyframe_from = 0;
+  std::string robot_to;
+  KeyframeId keyframe_to = 0;
+  /// Pose of keyframe "to" in keyframe "from"'s frame, covariance over [x y z, rotation].
+  Pose3 relative = Pose3::Identity();
+  alignment::Matrix6 covariance = alignment::Matrix6::Identity();
+};
+
+struct TeamEstimate {
+  std::string peer;
+  /// The peer's frame in this robot's map frame (when found).
+  alignment::AlignmentResult alignment;
+  int candidates = 0;
+};
+
+struct BackendSnapshot {
+  /// This robot's keyframes: id, stamp and optimised pose in the map frame, in id order.
+  std::vector<KeyframeId> ids;
+  std::vector<Stamp> stamps;
+  std::vector<Pose3> poses;
+  /// The newest keyframe's odometry pose (map -> odom = poses.back() * odom_pose^-1).
+  Pose3 latest_odom_pose = Pose3::Identity();
+  std::vector<TeamEstimate> team;
+  int intra_loops = 0;
+  int intra_loops_rejected = 0;
+  double solve_s = 0.0;
+};
+
+class TeamGraph {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  TeamGraph(std::string robot, const BackendParams& params);
+
+  /// This robot's keyframes, in id order (ids increasing), with their odometry poses.
+  /// Returns false (and changes nothing) for a non-increasing id or an invalid pose.
+  bool addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose);
+  /// A teammate's keyframe, with its pose in the teammate's frame.
+  bool addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose);
+  /// Intra- or inter-robot; kept until both keyframes are known. False when it concerns neither
+  /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose).
+  bool addLoopClosure(const LoopClosureData& loop);
+
+  /// Optimises the graph and re-estimates every team transform.
+  BackendSnapshot optimize();
+
+  /// Marginal covariances of the given keyframes at the last optimisation (pose uncertainty).
+  std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
+
+ private:
+  std::string robot_;
+  BackendParams params_;
+  PoseGraphOptimizer optimizer_;
+  PoseGraph graph_;  // this robot's keyframes
+  std::vector<KeyframeId> ids_;
+  std::vector<Stamp> stamps_;
+  std::vector<Pose3> odom_poses_;
+  std::map<KeyframeId, int> index_;
+  std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
+  std::vector<LoopClosureData> loops_;  // all of them; resolved at each optimisation
+  std::vector<double> last_weights_;
+};
+
+}  // namespace ccir_mapping::core::backend

@@ -1,0 +1,162 @@
+#include "ccir_mapping/core/backend/team_graph.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+namespace ccir_mapping::core::backend {
+namespace {
+
+OptimizerParams optimizerParams(const BackendParams& p) {
+  OptimizerParams o;
+  o.kernel = p.robust_kernel;
+  o.switch_prior_sigma = p.switch_prior_sigma;
+  o.max_iterations = p.max_iterations;
+  o.max_solve_time_s = p.max_solve_time_s;
+  return o;
+}
+
+const BackendParams& validated(const BackendParams& params) {
+  const auto errors = params.validate();
+  if (!errors.empty()) throw std::invalid_argument(errors.front());
+  return params;
+}
+
+}  // namespace
+
+TeamGraph::TeamGraph(std::string robot, const BackendParams& params)
+    : robot_(std::move(robot)), params_(validated(params)), optimizer_(optimizerParams(params)) {
+  graph_.dimension = 3;
+}
+
+bool TeamGraph::addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose) {
+  if (!isValidPose(odom_pose) || (!ids_.empty() && id <= ids_.back())) return false;
+  if (ids_.empty()) {
+    graph_.poses.push_back(odom_pose);  // the map frame starts at the odometry frame
+  } else {
+    const Pose3 step = odom_poses_.back().inverse() * odom_pose;
+    graph_.poses.push_back(graph_.poses.back() * step);  // continue from the optimised pose
+    const double distance = step.translation().norm();
+    const double angle = Eigen::AngleAxisd(step.linear()).angle();
+    const double sigma_t = std::max(0.01, params_.odom_sigma_m_per_m * distance);
+    const double sigma_r =
+        std::max(0.1 * M_PI / 180.0, params_.odom_sigma_rad_per_m * distance + 0.05 * angle);
+    PoseGraphEdge edge;
+    edge.from = static_cast<int>(ids_.size()) - 1;
+    edge.to = static_cast<int>(ids_.size());
+    edge.measurement = step;
+    edge.information = Information::Zero(6, 6);
+    edge.information.diagonal() << Eigen::Vector3d::Constant(1.0 / (sigma_t * sigma_t)),
+        Eigen::Vector3d::Constant(1.0 / (sigma_r * sigma_r));
+    graph_.edges.push_back(edge);
+  }
+  index_[id] = static_cast<int>(ids_.size());
+  ids_.push_back(id);
+  stamps_.push_back(stamp);
+  odom_poses_.push_back(odom_pose);
+  return true;
+}
+
+bool TeamGraph::addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose) {
+  if (robot == robot_ || robot.empty() || !isValidPose(pose)) return false;
+  peers_[robot][id] = pose;
+  return true;
+}
+
+bool TeamGraph::addLoopClosure(const LoopClosureData& loop) {
+  if (!isValidPose(loop.relative) || !loop.covariance.allFinite()) return false;
+  if (loop.robot_from != robot_ && loop.robot_to != robot_) return false;
+  if (loop.robot_from == robot_ && loop.robot_to == robot_ &&
+      loop.keyframe_from == loop.keyframe_to) {
+    return false;
+  }
+  const Eigen::LLT<alignment::Matrix6> llt(loop.covariance);
+  if (llt.info() != Eigen::Success) return false;
+  loops_.push_back(loop);
+  return true;
+}
+
+BackendSnapshot TeamGraph::optimize() {
+  BackendSnapshot snapshot;
+  const auto start = std::chrono::steady_clock::now();
+  // The graph: odometry edges (kept in graph_) plus the intra-robot loops whose keyframes exist.
+  PoseGraph graph = graph_;
+  std::map<std::string, std::vector<alignment::AlignmentCandidate>> candidates;
+  for (const auto& loop : loops_) {
+    if (loop.robot_from == robot_ && loop.robot_to == robot_) {
+      const auto from = index_.find(loop.keyframe_from);
+      const auto to = index_.find(loop.keyframe_to);
+      if (from == index_.end() || to == index_.end()) continue;
+      PoseGraphEdge edge;
+      edge.from = from->second;
+      edge.to = to->second;
+      edge.measurement = loop.relative;
+      edge.information = loop.covariance.inverse();
+      edge.loop = true;
+      graph.edges.push_back(edge);
+      ++snapshot.intra_loops;
+    }
+  }
+  if (graph.poses.size() >= 2) {
+    const OptimizationResult result = optimizer_.optimize(graph);
+    graph_.poses = graph.poses;
+    last_weights_ = result.weights;
+    for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+      snapshot.intra_loops_rejected += graph.edges[k].loop && !result.inliers[k];
+    }
+  }
+
+  // Inter-robot loops, oriented from this robot to the peer, against the optimised poses.
+  for (const auto& loop : loops_) {
+    const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
+    const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
+    if (!outgoing && !incoming) continue;
+    const std::string& peer = outgoing ? loop.robot_to : loop.robot_from;
+    const KeyframeId mine = outgoing ? loop.keyframe_from : loop.keyframe_to;
+    const KeyframeId theirs = outgoing ? loop.keyframe_to : loop.keyframe_from;
+    const auto own = index_.find(mine);
+    const auto peer_keyframes = peers_.find(peer);
+    if (own == index_.end() || peer_keyframes == peers_.end()) continue;
+    const auto other = peer_keyframes->second.find(theirs);
+    if (other == peer_keyframes->second.end()) continue;
+    alignment::AlignmentCandidate c;
+    c.pose_a = graph_.poses[static_cast<std::size_t>(own->second)];
+    c.pose_b = other->second;
+    c.measurement = outgoing ? loop.relative : loop.relative.inverse();
+    c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
+    candidates[peer].push_back(c);
+  }
+  for (const auto& [peer, list] : candidates) {
+    alignment::AlignmentParams params;
+    params.min_inliers = params_.min_team_inliers;
+    params.min_inlier_margin = params_.team_inlier_margin;
+    TeamEstimate estimate;
+    estimate.peer = peer;
+    estimate.candidates = static_cast<int>(list.size());
+    estimate.alignment = alignment::estimateFrameTransform(list, params);
+    snapshot.team.push_back(estimate);
+  }
+
+  snapshot.ids = ids_;
+  snapshot.stamps = stamps_;
+  snapshot.poses = graph_.poses;
+  if (!odom_poses_.empty()) snapshot.latest_odom_pose = odom_poses_.back();
+  snapshot.solve_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return snapshot;
+}
+
+std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
+    const std::vector<KeyframeId>& ids) const {
+  std::vector<int> indices;
+  for (const KeyframeId id : ids) {
+    const auto it = index_.find(id);
+    if (it == index_.end()) return std::nullopt;
+    indices.push_back(it->second);
+  }
+  return optimizer_.marginalCovariances(graph_, indices);
+}
+
+}  // namespace ccir_mapping::core::backend
