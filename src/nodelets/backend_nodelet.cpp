@@ -64,7 +64,7 @@ class BackendNodelet final : public PipelineNodelet {
                                  &BackendNodelet::onKeyframe, this);
     peer_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
                              &BackendNodelet::onPeerKeyframe, this);
-    loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kMessageQueueSize,
+    loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize,
                              &BackendNodelet::onLoopClosure, this);
     worker_ = std::thread([this] { run(); });
   }

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/core/backend/team_graph.h"
 
 namespace ccir_mapping::core::alignment {
 namespace {
@@ -124,3 +125,53 @@ TEST(FrameAlignment, InvalidParametersAndCovariances) {
 
 }  // namespace
 }  // namespace ccir_mapping::core::alignment
+
+namespace ccir_mapping::core::backend {
+namespace {
+
+TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
+  alignment::SyntheticSpec spec;
+  spec.keyframes = 80;
+  spec.inliers = 15;
+  spec.outliers = 45;
+  spec.seed = 5;
+  const auto s = alignment::makeSyntheticCandidates(spec);
+  TeamGraph graph("robot_a", BackendParams{});
+  for (std::size_t i = 0; i < s.poses_a.size(); ++i) {
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(100.0 + i), s.poses_a[i]));
+    ASSERT_TRUE(graph.addPeerKeyframe("robot_b", i, s.poses_b[i]));
+  }
+  EXPECT_FALSE(graph.addKeyframe(3, 0, s.poses_a[3]));  // ids must increase
+  for (std::size_t k = 0; k < s.candidates.size(); ++k) {
+    LoopClosureData loop;
+    const bool outgoing = k % 2 == 0;
+    loop.robot_from = outgoing ? "robot_a" : "robot_b";
+    loop.keyframe_from = static_cast<KeyframeId>(outgoing ? s.index_a[k] : s.index_b[k]);
+    loop.robot_to = outgoing ? "robot_b" : "robot_a";
+    loop.keyframe_to = static_cast<KeyframeId>(outgoing ? s.index_b[k] : s.index_a[k]);
+    loop.relative = outgoing ? s.candidates[k].measurement : s.candidates[k].measurement.inverse();
+    loop.covariance = s.candidates[k].covariance;
+    ASSERT_TRUE(graph.addLoopClosure(loop));
+  }
+  LoopClosureData strangers;
+  strangers.robot_from = "robot_b";
+  strangers.robot_to = "robot_c";
+  EXPECT_FALSE(graph.addLoopClosure(strangers));
+
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_EQ(snapshot.poses.size(), 80U);
+  EXPECT_TRUE(snapshot.poses.back().isApprox(s.poses_a.back(), 1e-6));  // no intra loops
+  ASSERT_EQ(snapshot.team.size(), 1U);
+  const auto& estimate = snapshot.team.front();
+  EXPECT_EQ(estimate.candidates, 60);
+  ASSERT_TRUE(estimate.alignment.found) << estimate.alignment.reason;
+  const Pose3 error = s.truth.inverse() * estimate.alignment.transform;
+  EXPECT_LT(error.translation().norm(), 0.1);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, 1.0);
+  const auto covariance = graph.covariances({10});
+  ASSERT_TRUE(covariance);
+  EXPECT_GT(covariance->front().trace(), 0.0);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::backend

@@ -35,6 +35,8 @@ constexpr char kInboxReceipts[] = "inbox/receipts";
 constexpr int kSensorQueueSize = 5;
 constexpr int kKeyframeQueueSize = 100;
 constexpr int kMessageQueueSize = 50;
+/// Loop closures are small and may come in bursts (a teammate's backlog): none may be lost.
+constexpr int kLoopClosureQueueSize = 1000;
 constexpr int kLatestOnlyQueueSize = 1;
 
 }  // namespace ccir_mapping::topics

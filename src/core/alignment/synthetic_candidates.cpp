@@ -30,7 +30,7 @@ SyntheticCandidates makeSyntheticCandidates(const SyntheticSpec& spec) {
   // frame, within 2 m of a: true loop closures join nearby keyframes. Robot b's estimate may
   // drift.
   std::vector<Pose3> a{planar(5 * u(rng), 5 * u(rng), 0, M_PI * u(rng))};
-  for (int k = 1; k < 200; ++k) a.push_back(a.back() * planar(0.5, 0, 0, 0.6 * u(rng)));
+  for (int k = 1; k < spec.keyframes; ++k) a.push_back(a.back() * planar(0.5, 0, 0, 0.6 * u(rng)));
   std::vector<Pose3> b_true;
   for (const Pose3& pose : a) {
     b_true.push_back(s.truth.inverse() * pose *
@@ -48,9 +48,11 @@ SyntheticCandidates makeSyntheticCandidates(const SyntheticSpec& spec) {
   Matrix6 covariance = Matrix6::Zero();
   covariance.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
   auto candidate = [&](const Pose3& transform, bool noisy_truth) {
-    const int j = std::uniform_int_distribution<int>(0, 199)(rng);
+    const int j = std::uniform_int_distribution<int>(0, spec.keyframes - 1)(rng);
     // True and aliased loops join keyframes at the same place; false ones any two.
-    const int i = noisy_truth ? j : std::uniform_int_distribution<int>(0, 199)(rng);
+    const int i = noisy_truth ? j : std::uniform_int_distribution<int>(0, spec.keyframes - 1)(rng);
+    s.index_a.push_back(i);
+    s.index_b.push_back(j);
     AlignmentCandidate c;
     c.pose_a = a[static_cast<std::size_t>(i)];
     c.pose_b = b_estimate[static_cast<std::size_t>(j)];
@@ -79,6 +81,8 @@ SyntheticCandidates makeSyntheticCandidates(const SyntheticSpec& spec) {
     s.candidates.push_back(candidate(Pose3::Identity(), false));
     s.inlier.push_back(false);
   }
+  s.poses_a = a;
+  s.poses_b = b_estimate;
   return s;
 }
 

@@ -10,11 +10,19 @@ namespace ccir_mapping::core::alignment {
 
 struct SyntheticCandidates {
   Pose3 truth;  // T^a_b
+  /// Robot a's keyframe poses and robot b's estimated ones, each in its own frame.
+  std::vector<Pose3> poses_a;
+  std::vector<Pose3> poses_b;
   std::vector<AlignmentCandidate> candidates;
+  /// Per candidate: the keyframes it joins, and whether it is true.
+  std::vector<int> index_a;
+  std::vector<int> index_b;
   std::vector<bool> inlier;
 };
 
 struct SyntheticSpec {
+  /// Keyframes per robot.
+  int keyframes = 200;
   int inliers = 20;
   int outliers = 60;
   /// A consistent group of false candidates, generated from another transform.

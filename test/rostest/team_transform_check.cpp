@@ -1,0 +1,112 @@
+// Two robots' keyframes and inter-robot loop closures, most of them false, into robot_a's
+// pipeline (launch/robot.launch): the Backend must put the true transform to robot_b's frame on
+// tf and announce it as a valid TeamTransform.
+#include <gtest/gtest.h>
+
+#include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <Eigen/Geometry>
+
+#include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/LoopClosure.h"
+#include "ccir_mapping/TeamTransform.h"
+#include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/ros/conversions.h"
+#include "wait_for.h"
+
+namespace ccir_mapping {
+namespace {
+
+using testing::waitFor;
+
+TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
+  ros::NodeHandle nh;
+  ros::Publisher keyframes = nh.advertise<Keyframe>("keyframes", 500);
+  ros::Publisher peer_keyframes = nh.advertise<Keyframe>("inbox/scans", 500);
+  ros::Publisher loops = nh.advertise<LoopClosure>("loop_closures", 500);
+  TeamTransform::ConstPtr team;
+  ros::Subscriber team_sub = nh.subscribe<TeamTransform>(
+      "team_transforms", 10, [&](const TeamTransform::ConstPtr& m) { team = m; });
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return keyframes.getNumSubscribers() > 0 && peer_keyframes.getNumSubscribers() > 0 &&
+               loops.getNumSubscribers() > 0 && team_sub.getNumPublishers() > 0;
+      },
+      30.0))
+      << "the pipeline did not come up";
+
+  core::alignment::SyntheticSpec spec;
+  spec.keyframes = 80;  // fewer than the subscribers' queues hold
+  spec.inliers = 15;
+  spec.outliers = 45;  // 75 % false
+  spec.seed = 5;
+  const auto s = core::alignment::makeSyntheticCandidates(spec);
+  const ros::Time t0(100.0);
+  auto keyframe = [&](const std::string& robot, std::size_t id, const core::Pose3& pose) {
+    auto k = boost::make_shared<Keyframe>();
+    k->header.stamp = t0 + ros::Duration(0.1 * id);
+    k->header.frame_id = robot + "/velodyne";
+    k->robot = robot;
+    k->id = id;
+    k->odom_frame = robot + "/odom";
+    k->odom_pose = conversions::toPoseMsg(pose);
+    return k;
+  };
+  for (std::size_t i = 0; i < s.poses_a.size(); ++i) {
+    keyframes.publish(keyframe("robot_a", i, s.poses_a[i]));
+    peer_keyframes.publish(keyframe("robot_b", i, s.poses_b[i]));
+  }
+  // True and false closures interleaved, as place recognition finds them.
+  std::vector<std::size_t> order(s.candidates.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = (k * 7) % order.size();
+  for (const std::size_t k : order) {
+    auto loop = boost::make_shared<LoopClosure>();
+    loop->header.stamp = t0;
+    // Half of them in each direction: the Backend turns them around.
+    const bool outgoing = k % 2 == 0;
+    loop->robot_from = outgoing ? "robot_a" : "robot_b";
+    loop->keyframe_from = static_cast<std::uint64_t>(outgoing ? s.index_a[k] : s.index_b[k]);
+    loop->robot_to = outgoing ? "robot_b" : "robot_a";
+    loop->keyframe_to = static_cast<std::uint64_t>(outgoing ? s.index_b[k] : s.index_a[k]);
+    loop->relative_pose = conversions::toPoseMsg(outgoing ? s.candidates[k].measurement
+                                                          : s.candidates[k].measurement.inverse());
+    for (int d = 0; d < 6; ++d) loop->covariance[d * 7] = s.candidates[k].covariance(d, d);
+    loop->method = "fabmap";
+    loops.publish(loop);
+  }
+
+  ASSERT_TRUE(waitFor([&] { return team && team->valid; }, 30.0))
+      << "no valid team transform (last: "
+      << (team ? std::to_string(team->inliers) + " inliers of " + std::to_string(team->candidates)
+               : std::string("none"))
+      << ")";
+  EXPECT_EQ(team->peer, "robot_b");
+  EXPECT_EQ(team->header.frame_id, "robot_a/map");
+  EXPECT_EQ(team->child_frame_id, "robot_b/map");
+  EXPECT_GE(team->inliers, 12U);
+  EXPECT_EQ(team->candidates, 60U);
+
+  std::string why;
+  ASSERT_TRUE(waitFor(
+      [&] { return buffer.canTransform("robot_a/map", "robot_b/map", ros::Time(0), &why); }, 10.0))
+      << why;
+  const Eigen::Isometry3d estimate =
+      tf2::transformToEigen(buffer.lookupTransform("robot_a/map", "robot_b/map", ros::Time(0)));
+  const Eigen::Isometry3d error = s.truth.inverse() * estimate;
+  EXPECT_LT(error.translation().norm(), 0.1);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 1.0);
+}
+
+}  // namespace
+}  // namespace ccir_mapping
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "team_transform_check");
+  ros::NodeHandle keep_alive;
+  return RUN_ALL_TESTS();
+}
