@@ -12,6 +12,7 @@
 #include "ccir_mapping/core/backend/outlier_injector.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
 #include "ccir_mapping/core/backend/trajectory_error.h"
+#include "mrpt_reference.h"
 
 namespace po = boost::program_options;
 namespace backend = ccir_mapping::core::backend;
@@ -69,6 +70,8 @@ int main(int argc, char** argv) {
       po::value<int>(&params.max_iterations)->default_value(params.max_iterations),
       "solver iterations")(
       "threads", po::value<int>(&params.threads)->default_value(params.threads), "solver threads")(
+      "reference", po::value<std::string>(),
+      "mrpt: also run MRPT's optimiser on the outlier-free graph and compare time and cost")(
       "json", "print JSON (the only output format; accepted for scripts)");
   po::variables_map arguments;
   try {
@@ -84,6 +87,12 @@ int main(int argc, char** argv) {
   }
   const auto kernel = backend::parseRobustKernel(robust);
   const auto mode = backend::parseOutlierMode(outlier_mode);
+  const std::string reference_solver =
+      arguments.count("reference") ? arguments["reference"].as<std::string>() : "";
+  if (!reference_solver.empty() && reference_solver != "mrpt") {
+    std::cerr << "pgo_benchmark: --reference allows only mrpt\n";
+    return 2;
+  }
   if (g2o.empty() || !kernel || !mode || outliers.count < 0 ||
       (switch_function != "linear" && switch_function != "sigmoid")) {
     std::cerr << "pgo_benchmark: need --g2o FILE, --robust " << backend::kRobustKernelChoices
@@ -116,6 +125,19 @@ int main(int argc, char** argv) {
       }
     }
     const double outlier_free_ate = backend::absoluteTrajectoryError(optimum.poses, reference);
+    // MRPT's optimiser on the same outlier-free graph: time, and the cost of its result under
+    // this package's cost function (the same edges and conventions).
+    std::string mrpt_json = "null";
+    if (reference_solver == "mrpt") {
+      const MrptReference mrpt = runMrptReference(g2o, clean.dimension, params.max_iterations);
+      backend::PoseGraph mrpt_graph = clean;
+      if (mrpt.poses.size() == clean.poses.size()) mrpt_graph.poses = mrpt.poses;
+      char buffer[256];
+      std::snprintf(buffer, sizeof buffer,
+                    "{\"solve_s\": %.3f, \"iterations\": %d, \"plain_cost\": %.10g}", mrpt.solve_s,
+                    mrpt.iterations, backend::PoseGraphOptimizer::plainCost(mrpt_graph));
+      mrpt_json = buffer;
+    }
 
     backend::PoseGraph graph = clean;
     backend::injectOutliers(graph, outliers.count > 0 ? outliers : backend::OutlierParams{0});
@@ -147,7 +169,8 @@ int main(int argc, char** argv) {
         "  \"ate_rmse\": %.6g,\n  \"outlier_free_ate_rmse\": %.6g,\n  \"ate_ratio\": %.4g,\n"
         "  \"initial_cost\": %.10g,\n  \"final_cost\": %.10g,\n  \"plain_cost\": %.10g,\n"
         "  \"iterations\": %d,\n  \"solve_s\": %.3f,\n  \"usable\": %s,\n"
-        "  \"outlier_free_solve_s\": %.3f,\n"
+        "  \"outlier_free_solve_s\": %.3f,\n  \"outlier_free_plain_cost\": %.10g,\n"
+        "  \"mrpt_reference\": %s,\n"
         "  \"loop_classification\": {\"rejected\": %zu, \"rejected_outliers\": %zu, "
         "\"rejected_true_loops\": %zu, \"precision\": %.4f, \"recall\": %.4f}\n}\n",
         jsonString(g2o).c_str(), clean.dimension, clean.poses.size(), graph.edges.size(),
@@ -156,7 +179,8 @@ int main(int argc, char** argv) {
         jsonString(gt.empty() ? "outlier-free optimum" : "ground truth").c_str(), ate,
         outlier_free_ate, outlier_free_ate > 0 ? ate / outlier_free_ate : 0.0, result.initial_cost,
         result.final_cost, backend::PoseGraphOptimizer::plainCost(graph), result.iterations,
-        result.solve_s, result.usable ? "true" : "false", optimum_result.solve_s, rejected,
+        result.solve_s, result.usable ? "true" : "false", optimum_result.solve_s,
+        backend::PoseGraphOptimizer::plainCost(optimum), mrpt_json.c_str(), rejected,
         rejected_outliers, rejected_true, precision, recall);
   } catch (const std::exception& e) {
     std::cerr << "pgo_benchmark: " << e.what() << '\n';
