@@ -1,0 +1,197 @@
+// Place recognition (algorithms.md section 1.10): Chow-Liu recovery of a known tree, mutual
+// information, probability axioms of the FAB-MAP likelihood, posteriors, FAB-MAP 2.0 equal to
+// 1.0, vocabulary training, quantisation and files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <random>
+#include <set>
+
+#include "ccir_mapping/core/place_recognition/fabmap.h"
+
+namespace ccir_mapping::core::place_recognition {
+namespace {
+
+/// Word sets sampled from a chain 0 -> 1 -> ... -> 7 (strong conditionals), word 8 independent
+/// of everything, and words 9..11 rare.
+std::vector<WordSet> chainSamples(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<WordSet> sets;
+  for (int k = 0; k < count; ++k) {
+    WordSet set;
+    bool previous = u(rng) < 0.5;
+    if (previous) set.push_back(0);
+    for (std::uint32_t w = 1; w < 8; ++w) {
+      const bool on = u(rng) < (previous ? 0.9 : 0.1);
+      if (on) set.push_back(w);
+      previous = on;
+    }
+    if (u(rng) < 0.5) set.push_back(8);
+    for (std::uint32_t w = 9; w < 12; ++w) {
+      if (u(rng) < 0.05) set.push_back(w);
+    }
+    sets.push_back(set);
+  }
+  return sets;
+}
+
+TEST(ChowLiu, RecoversAKnownChain) {
+  const auto training = chainSamples(5000, 1);
+  const ChowLiuTree tree = ChowLiuTree::learn(training, 12);
+  ASSERT_EQ(tree.size(), 12U);
+  int roots = 0;
+  for (std::size_t q = 0; q < tree.size(); ++q) roots += tree.parent(q) == static_cast<int>(q);
+  EXPECT_EQ(roots, 1);  // a spanning tree: V - 1 edges
+  for (std::uint32_t w = 1; w < 8; ++w) {
+    const bool edge =
+        tree.parent(w) == static_cast<int>(w - 1) || tree.parent(w - 1) == static_cast<int>(w);
+    EXPECT_TRUE(edge) << "chain edge " << w - 1 << " - " << w << " not recovered";
+  }
+  // Conditionals follow the chain: a word given its parent on is likelier than given off.
+  for (std::uint32_t w = 1; w < 8; ++w) {
+    EXPECT_GT(tree.conditional(w, true), tree.conditional(w, false) + 0.5) << w;
+  }
+  for (std::size_t q = 0; q < tree.size(); ++q) {
+    for (bool v : {false, true}) {
+      EXPECT_GE(tree.conditional(q, v), 0.01);
+      EXPECT_LE(tree.conditional(q, v), 0.99);
+    }
+  }
+}
+
+TEST(ChowLiu, MutualInformationIsSymmetricAndZeroForIndependentWords) {
+  // Word 0 in the first half, word 1 in every other set: exactly independent counts.
+  std::vector<WordSet> sets;
+  for (int k = 0; k < 100; ++k) {
+    WordSet s;
+    if (k < 50) s.push_back(0);
+    if (k % 2 == 0) s.push_back(1);
+    sets.push_back(s);
+  }
+  EXPECT_NEAR(ChowLiuTree::mutualInformation(sets, 0, 1), 0.0, 1e-15);
+  const auto chain = chainSamples(2000, 2);
+  const double ab = ChowLiuTree::mutualInformation(chain, 2, 3);
+  EXPECT_GT(ab, 0.1);
+  EXPECT_DOUBLE_EQ(ab, ChowLiuTree::mutualInformation(chain, 3, 2));
+}
+
+class Fabmap : public ::testing::Test {
+ protected:
+  Fabmap()
+      : training_(chainSamples(2000, 3)),
+        tree_(ChowLiuTree::learn(training_, 12)),
+        model_(tree_, FabMapParams{}) {}
+  std::vector<WordSet> training_;
+  ChowLiuTree tree_;
+  FabMapModel model_;
+};
+
+TEST_F(Fabmap, LikelihoodsOfBothValuesSumToOne) {
+  for (std::size_t q = 0; q < tree_.size(); ++q) {
+    for (bool zp : {false, true}) {
+      for (auto place : {FabMapModel::kLacks, FabMapModel::kHas, FabMapModel::kAverage}) {
+        const double sum = std::exp(model_.logLikelihood(q, false, zp, place)) +
+                           std::exp(model_.logLikelihood(q, true, zp, place));
+        ASSERT_NEAR(sum, 1.0, 1e-12) << q << " " << zp << " " << place;
+      }
+    }
+  }
+}
+
+TEST_F(Fabmap, PosteriorSumsToOneAndPicksTheRightPlace) {
+  const std::vector<WordSet> samples(training_.begin(), training_.begin() + 200);
+  FabMap fabmap(model_, samples);
+  const WordSet a{0, 1, 2, 3, 9};
+  const WordSet b{8, 10};
+  const WordSet c{11};
+  fabmap.addPlace(a);
+  fabmap.addPlace(b);
+  fabmap.addPlace(c);
+  const auto revisit = fabmap.posterior(a);
+  ASSERT_EQ(revisit.size(), 4U);
+  EXPECT_NEAR(std::accumulate(revisit.begin(), revisit.end(), 0.0), 1.0, 1e-12);
+  EXPECT_EQ(std::max_element(revisit.begin(), revisit.end()) - revisit.begin(), 0);
+  EXPECT_GT(revisit[0], 0.5);
+  // A typical scene that shares no word with any mapped place: a new place.
+  const auto unseen = fabmap.posterior({4, 5, 6, 7});
+  EXPECT_EQ(std::max_element(unseen.begin(), unseen.end()) - unseen.begin(), 3);
+
+  FabMap mean_field(model_, {}, NewPlaceMethod::kMeanField);
+  mean_field.addPlace(a);
+  const auto p = mean_field.posterior(a);
+  EXPECT_NEAR(p[0] + p[1], 1.0, 1e-12);
+  EXPECT_GT(p[0], p[1]);
+}
+
+TEST_F(Fabmap, Fabmap2GivesTheSamePosteriorsAsFabmap1) {
+  const std::vector<WordSet> samples(training_.begin(), training_.begin() + 300);
+  FabMap one(model_, samples);
+  FabMap2 two(model_, samples);
+  for (std::size_t k = 1000; k < 1100; ++k) {
+    one.addPlace(training_[k]);
+    two.addPlace(training_[k]);
+  }
+  EXPECT_EQ(two.places(), 100U);
+  for (std::size_t k = 1500; k < 1520; ++k) {
+    const auto p1 = one.posterior(training_[k]);
+    const auto p2 = two.posterior(training_[k]);
+    ASSERT_EQ(p1.size(), p2.size());
+    for (std::size_t i = 0; i < p1.size(); ++i) ASSERT_NEAR(p1[i], p2[i], 1e-9) << k << " " << i;
+  }
+}
+
+TEST(Vocabulary, KMeansFindsBlobsQuantizesAndRoundTrips) {
+  std::mt19937 rng(4);
+  std::normal_distribution<float> noise(0.0F, 0.001F);
+  std::vector<features::SpinImage> centres(5);
+  for (std::size_t c = 0; c < centres.size(); ++c) {
+    centres[c].fill(0.0F);
+    centres[c][c * 20] = 1.0F;  // far apart
+  }
+  std::vector<features::SpinImage> descriptors;
+  for (int k = 0; k < 200; ++k) {
+    features::SpinImage d = centres[static_cast<std::size_t>(k % 5)];
+    for (float& v : d) v += noise(rng);
+    descriptors.push_back(d);
+  }
+  const Vocabulary vocabulary = Vocabulary::train(descriptors, 5, 1);
+  ASSERT_EQ(vocabulary.size(), 5U);
+  // Each blob maps to one word, different blobs to different words.
+  std::set<std::uint32_t> words;
+  for (const auto& centre : centres) {
+    const WordSet set = vocabulary.quantize({centre});
+    ASSERT_EQ(set.size(), 1U);
+    words.insert(set.front());
+  }
+  EXPECT_EQ(words.size(), 5U);
+  EXPECT_TRUE(vocabulary.quantize({centres[0]}, 1e-6).size() <= 1U);
+  EXPECT_TRUE(vocabulary.quantize(descriptors, 0.0).empty());  // nothing within distance 0
+
+  const auto path =
+      std::filesystem::temp_directory_path() / ("ccir_vocabulary_" + std::to_string(::getpid()));
+  vocabulary.save(path.string());
+  const Vocabulary loaded = Vocabulary::load(path.string());
+  EXPECT_EQ(loaded.hash(), vocabulary.hash());
+  EXPECT_EQ(loaded.quantize(descriptors), vocabulary.quantize(descriptors));
+  {
+    std::fstream corrupt(path, std::ios::in | std::ios::out | std::ios::binary);
+    corrupt.seekp(-8, std::ios::end);
+    corrupt.write("\x7f\x7f\x7f\x7f", 4);
+  }
+  EXPECT_THROW(Vocabulary::load(path.string()), std::runtime_error);  // hash mismatch
+  EXPECT_THROW(Vocabulary::load("/nonexistent"), std::runtime_error);
+  EXPECT_THROW(Vocabulary::train(descriptors, 500), std::invalid_argument);
+
+  const ChowLiuTree tree = ChowLiuTree::learn({{0, 1}, {1, 2}, {0, 2, 3}}, 5);
+  tree.save(path.string(), vocabulary.hash());
+  EXPECT_EQ(ChowLiuTree::load(path.string(), vocabulary.hash()).size(), 5U);
+  EXPECT_THROW(ChowLiuTree::load(path.string(), "another"), std::runtime_error);
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::place_recognition
