@@ -10,14 +10,16 @@
 #include "ccir_mapping/core/features/descriptor_matcher.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
+#include "ccir_mapping/core/registration/scan_verifier.h"
 
 namespace ccir_mapping::core::features {
-namespace {
 
 std::filesystem::path dataDir() {
   const char* dir = std::getenv("CCIR_DATA_DIR");
   return dir ? std::filesystem::path(dir) : std::filesystem::path(CCIR_DEFAULT_DATA_DIR);
 }
+
+namespace {
 
 LocalFeatures featuresOf(const std::string& name, const FeatureParams& params) {
   pcl::PointCloud<pcl::PointXYZI> scan;
@@ -64,3 +66,63 @@ INSTANTIATE_TEST_SUITE_P(Features, RealScans,
 
 }  // namespace
 }  // namespace ccir_mapping::core::features
+
+namespace ccir_mapping::core::registration {
+namespace {
+
+TEST(RealScans, RevisitVerifiesAndOtherPlaceIsRejected) {
+  const auto root = features::dataDir() / "lidar";
+  if (!std::filesystem::exists(root / "16line_1.pcd")) {
+    GTEST_SKIP() << "SKIPPED: real scans not found under " << root << " (set CCIR_DATA_DIR)";
+  }
+  // Outdoors the thesis's tunnel filter ("both") leaves few keypoints: keep the ceiling side.
+  features::FeatureParams feature_params;
+  feature_params.drop_horizontal = preprocess::HorizontalFilter::kGround;
+  const preprocess::ScanPreprocessor preprocessor{preprocess::PreprocessorParams{}};
+  const features::FeatureExtractor extractor(feature_params);
+  struct Scan {
+    preprocess::ScanPreprocessor::OutputCloud::Ptr cloud;
+    features::LocalFeatures features;
+  };
+  auto load = [&](const char* name) {
+    pcl::PointCloud<pcl::PointXYZI> raw;
+    EXPECT_EQ(pcl::io::loadPCDFile((root / name).string(), raw), 0);
+    Scan scan;
+    scan.cloud = preprocessor.process(raw, Eigen::Vector3f::UnitZ());
+    scan.features = extractor.extract(*scan.cloud, Eigen::Vector3f::UnitZ());
+    return scan;
+  };
+  const Scan first = load("16line_1.pcd");
+  const Scan second = load("16line_2.pcd");
+  const Scan other = load("16line_other.pcd");
+  const ScanVerifier verifier{VerificationParams{}};
+
+  const Verification revisit =
+      verifier.verify(*first.cloud, first.features, *second.cloud, second.features);
+  std::printf("revisit: %d matches, %d inliers, fitness %.3f, yaw %.1f deg, shift %.2f m\n",
+              revisit.matches, revisit.inliers, revisit.fitness_m2,
+              std::atan2(revisit.relative(1, 0), revisit.relative(0, 0)) * 180 / M_PI,
+              revisit.relative.translation().norm());
+  ASSERT_TRUE(revisit.accepted) << revisit.reason;
+  const double yaw_deg = std::atan2(revisit.relative(1, 0), revisit.relative(0, 0)) * 180 / M_PI;
+  EXPECT_NEAR(std::abs(yaw_deg), 11.0, 3.0);
+  EXPECT_LT(revisit.relative.translation().norm(), 1.0);
+  for (const Scan* scan : {&first, &second}) {
+    const Verification wrong =
+        verifier.verify(*scan->cloud, scan->features, *other.cloud, other.features);
+    std::printf("other place: %d matches, %d inliers, fitness %.3f: %s\n", wrong.matches,
+                wrong.inliers, wrong.fitness_m2, wrong.reason.c_str());
+    EXPECT_FALSE(wrong.accepted);
+    // Even when few matches are allowed, the geometry rejects it.
+    VerificationParams lenient;
+    lenient.min_inliers = 3;
+    const Verification forced =
+        ScanVerifier(lenient).verify(*scan->cloud, scan->features, *other.cloud, other.features);
+    std::printf("  lenient: %d inliers, fitness %.3f: %s\n", forced.inliers, forced.fitness_m2,
+                forced.reason.c_str());
+    EXPECT_FALSE(forced.accepted);
+  }
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::registration

@@ -1,0 +1,61 @@
+// Geometric verification of a place-recognition candidate: RANSAC over mutual spin-image
+// correspondences for an initial transform, GICP to refine it, acceptance on inliers and fitness.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include "ccir_mapping/core/alignment/frame_alignment.h"
+#include "ccir_mapping/core/features/local_features.h"
+
+namespace ccir_mapping::core::registration {
+
+struct VerificationParams {
+  /// Lowe's ratio of the mutual descriptor matching.
+  double match_ratio = 0.8;
+  /// RANSAC (PCL CorrespondenceRejectorSampleConsensus): inlier distance and iterations.
+  double ransac_inlier_m = 0.5;
+  int ransac_iterations = 2000;
+  int min_inliers = 8;
+  /// GICP on the two clouds, down-sampled to this voxel and cropped to this range.
+  double gicp_voxel_m = 0.2;
+  double gicp_max_range_m = 40.0;
+  double gicp_max_correspondence_m = 1.0;
+  int gicp_iterations = 50;
+  /// Accept when the mean squared distance of matched points (within 1 m) is at most this.
+  double max_fitness_m2 = 0.1;
+
+  std::vector<std::string> validate() const;
+};
+
+struct Verification {
+  bool accepted = false;
+  /// Pose of the candidate scan ("to") in the query scan's frame ("from").
+  Pose3 relative = Pose3::Identity();
+  /// Of `relative`, [x y z, rotation vector]: isotropic, from the GICP fitness (sigma^2 =
+  /// fitness / inliers per axis, floored) - a working approximation, not a GICP Hessian.
+  alignment::Matrix6 covariance = alignment::Matrix6::Identity();
+  int matches = 0;
+  int inliers = 0;
+  double fitness_m2 = 0.0;
+  std::string reason;
+};
+
+class ScanVerifier {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  explicit ScanVerifier(const VerificationParams& params);
+
+  Verification verify(const pcl::PointCloud<pcl::PointXYZINormal>& from_cloud,
+                      const features::LocalFeatures& from,
+                      const pcl::PointCloud<pcl::PointXYZINormal>& to_cloud,
+                      const features::LocalFeatures& to) const;
+
+ private:
+  VerificationParams params_;
+};
+
+}  // namespace ccir_mapping::core::registration
