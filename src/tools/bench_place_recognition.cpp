@@ -1,0 +1,141 @@
+// bench_place_recognition: milliseconds of a FAB-MAP query over 1000 mapped places (2.0 with its
+// inverted index, and 1.0 for comparison, same posteriors) on synthetic word sets, and of the
+// geometric verification of one candidate on the real 16-line revisit pair. Prints JSON.
+// Targets: FAB-MAP query <= 10 ms, verification <= 150 ms per candidate.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <random>
+
+#include <pcl/io/pcd_io.h>
+#include <boost/program_options.hpp>
+
+#include "ccir_mapping/core/features/feature_extractor.h"
+#include "ccir_mapping/core/place_recognition/fabmap.h"
+#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
+#include "ccir_mapping/core/registration/scan_verifier.h"
+
+namespace po = boost::program_options;
+namespace pr = ccir_mapping::core::place_recognition;
+namespace core = ccir_mapping::core;
+
+namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+/// Word sets where each keyframe shows ~words_per_set of `words` words, in correlated groups
+/// (neighbouring ids tend to fire together, as features of one structure do).
+std::vector<pr::WordSet> wordSets(int count, int words, int words_per_set, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> start(0, words - 8);
+  std::bernoulli_distribution keep(0.7);
+  std::vector<pr::WordSet> sets;
+  for (int k = 0; k < count; ++k) {
+    pr::WordSet set;
+    while (static_cast<int>(set.size()) < words_per_set) {
+      const int group = start(rng);
+      for (int w = group; w < group + 8; ++w) {
+        if (keep(rng)) set.push_back(static_cast<std::uint32_t>(w));
+      }
+      std::sort(set.begin(), set.end());
+      set.erase(std::unique(set.begin(), set.end()), set.end());
+    }
+    sets.push_back(set);
+  }
+  return sets;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int places = 1000;
+  int words = 2000;
+  std::string data = std::getenv("CCIR_DATA_DIR") ? std::getenv("CCIR_DATA_DIR") : "";
+  po::options_description options(
+      "Usage: bench_place_recognition [--places N] [--words V] [--data DIR]\nPrints "
+      "JSON.\n\nOptions");
+  options.add_options()("help,h", "print this help and exit")(
+      "places", po::value<int>(&places)->default_value(places), "mapped places")(
+      "words", po::value<int>(&words)->default_value(words), "vocabulary size")(
+      "data", po::value<std::string>(&data), "shared data directory (default CCIR_DATA_DIR)");
+  po::variables_map arguments;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), arguments);
+    po::notify(arguments);
+  } catch (const po::error& e) {
+    std::cerr << "bench_place_recognition: " << e.what() << '\n';
+    return 2;
+  }
+  if (arguments.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+  if (places < 1 || words < 16) {
+    std::cerr << "bench_place_recognition: --places >= 1 and --words >= 16\n";
+    return 2;
+  }
+
+  const auto training = wordSets(500, words, 150, 1);
+  const pr::ChowLiuTree tree = pr::ChowLiuTree::learn(training, static_cast<std::size_t>(words));
+  const pr::FabMapModel model(tree, pr::FabMapParams{});
+  const std::vector<pr::WordSet> samples(training.begin(), training.begin() + 100);
+  pr::FabMap one(model, samples);
+  pr::FabMap2 two(model, samples);
+  for (const auto& place : wordSets(places, words, 150, 2)) {
+    one.addPlace(place);
+    two.addPlace(place);
+  }
+  const auto queries = wordSets(20, words, 150, 3);
+  // The results are used (compared), so the optimiser cannot drop the queries.
+  double difference = 0.0;
+  std::vector<std::vector<double>> posteriors;
+  auto start = std::chrono::steady_clock::now();
+  for (const auto& q : queries) posteriors.push_back(two.posterior(q));
+  const double fabmap2_ms = millisecondsSince(start) / queries.size();
+  start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto p = one.posterior(queries[i]);
+    for (std::size_t j = 0; j < p.size(); ++j) {
+      difference = std::max(difference, std::abs(p[j] - posteriors[i][j]));
+    }
+  }
+  const double fabmap1_ms = millisecondsSince(start) / 3;
+
+  double verification_ms = -1.0;
+  const std::filesystem::path lidar = std::filesystem::path(data) / "lidar";
+  if (!data.empty() && std::filesystem::exists(lidar / "16line_1.pcd")) {
+    core::features::FeatureParams feature_params;
+    feature_params.drop_horizontal = core::preprocess::HorizontalFilter::kGround;
+    const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
+    const core::features::FeatureExtractor extractor(feature_params);
+    auto load = [&](const char* name) {
+      pcl::PointCloud<pcl::PointXYZI> raw;
+      pcl::io::loadPCDFile((lidar / name).string(), raw);
+      auto cloud = preprocessor.process(raw, Eigen::Vector3f::UnitZ());
+      return std::make_pair(cloud, extractor.extract(*cloud, Eigen::Vector3f::UnitZ()));
+    };
+    const auto a = load("16line_1.pcd");
+    const auto b = load("16line_2.pcd");
+    const core::registration::ScanVerifier verifier{core::registration::VerificationParams{}};
+    start = std::chrono::steady_clock::now();
+    for (int i = 0; i < 5; ++i) verifier.verify(*a.first, a.second, *b.first, b.second);
+    verification_ms = millisecondsSince(start) / 5;
+  } else {
+    std::cerr << "bench_place_recognition: no real scans under " << lidar
+              << " (set CCIR_DATA_DIR): verification not measured\n";
+  }
+  std::printf(
+      "{\n  \"benchmark\": \"place_recognition\",\n  \"places\": %d,\n  \"words\": %d,\n"
+      "  \"words_per_keyframe\": 150,\n  \"fabmap2_query_ms\": %.3f,\n"
+      "  \"fabmap1_query_ms\": %.2f,\n  \"fabmap_target_ms\": 10,\n"
+      "  \"fabmap1_vs_2_max_posterior_difference\": %.2g,\n  \"verification_ms\": %.1f,\n"
+      "  \"verification_target_ms\": 150\n}\n",
+      places, words, fabmap2_ms, fabmap1_ms, difference, verification_ms);
+  return 0;
+}
