@@ -11,6 +11,7 @@
 #include <set>
 
 #include "ccir_mapping/core/place_recognition/fabmap.h"
+#include "ccir_mapping/core/place_recognition/histogram_matcher.h"
 
 namespace ccir_mapping::core::place_recognition {
 namespace {
@@ -191,6 +192,47 @@ TEST(Vocabulary, KMeansFindsBlobsQuantizesAndRoundTrips) {
   EXPECT_EQ(ChowLiuTree::load(path.string(), vocabulary.hash()).size(), 5U);
   EXPECT_THROW(ChowLiuTree::load(path.string(), "another"), std::runtime_error);
   std::filesystem::remove(path);
+}
+
+TEST(HistogramMatcher, VotesForTheKeyframeSharingDescriptors) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0F, 1.0F);
+  auto random_descriptors = [&](int n) {
+    std::vector<features::SpinImage> d(static_cast<std::size_t>(n));
+    for (auto& x : d) {
+      for (float& v : x) v = u(rng);
+    }
+    return d;
+  };
+  HistogramMatcher matcher(HistogramParams{});
+  const auto revisited = random_descriptors(30);
+  matcher.addKeyframe(7, random_descriptors(30));
+  matcher.addKeyframe(8, revisited);
+  matcher.addKeyframe(9, random_descriptors(30));
+  EXPECT_EQ(matcher.keyframes(), 3U);
+  // The query: 20 of keyframe 8's descriptors (slightly perturbed) and 10 new ones.
+  auto query = random_descriptors(10);
+  for (int i = 0; i < 20; ++i) {
+    auto d = revisited[static_cast<std::size_t>(i)];
+    for (float& v : d) v += 0.001F * u(rng);
+    query.push_back(d);
+  }
+  const auto candidates = matcher.candidates(query);
+  ASSERT_FALSE(candidates.empty());
+  EXPECT_EQ(candidates.front().keyframe, 8U);
+  EXPECT_GE(candidates.front().votes, 20);
+  for (std::size_t i = 1; i < candidates.size(); ++i) {
+    EXPECT_LT(candidates[i].votes, candidates.front().votes);
+  }
+  HistogramParams strict;
+  strict.max_distance = 0.01;
+  HistogramMatcher close(strict);
+  close.addKeyframe(8, revisited);
+  close.addKeyframe(9, random_descriptors(30));
+  const auto only = close.candidates(query);
+  ASSERT_EQ(only.size(), 1U);
+  EXPECT_EQ(only.front().votes, 20);
+  EXPECT_TRUE(HistogramMatcher(HistogramParams{}).candidates(query).empty());
 }
 
 }  // namespace
