@@ -1,0 +1,164 @@
+// train_place_model: learns the place-recognition model - spin-image vocabulary, Chow-Liu tree
+// and new-place samples - from rosbags of missions that do not overlap the places to recognise
+// later. Keyframes are taken every --keyframe-distance-m of odometry, preprocessed and described
+// as the pipeline does. Writes DIR/vocabulary.bin, DIR/chow_liu_tree.txt, DIR/samples.txt and
+// DIR/model.yaml. Exit codes: 0 done, 1 cannot read or write, 2 bad arguments.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <random>
+
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <boost/program_options.hpp>
+
+#include "ccir_mapping/core/features/feature_extractor.h"
+#include "ccir_mapping/core/place_recognition/chow_liu_tree.h"
+#include "ccir_mapping/core/preprocess/keyframe_selector.h"
+#include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
+#include "ccir_mapping/ros/conversions.h"
+
+namespace po = boost::program_options;
+namespace core = ccir_mapping::core;
+namespace conversions = ccir_mapping::conversions;
+
+int main(int argc, char** argv) {
+  std::vector<std::string> bags;
+  std::string out;
+  int words = 500;
+  double keyframe_distance_m = 2.0;
+  int max_descriptors = 100000;
+  int seed = 1;
+  std::string points_topic = "/velodyne_points";
+  std::string odom_topic = "/odom";
+  po::options_description options(
+      "Usage: train_place_model --bags A.bag [B.bag ...] --out DIR [--words 500]\n"
+      "Learns the vocabulary, the Chow-Liu tree and the new-place samples from missions that do\n"
+      "not overlap the places to recognise.\n\nOptions",
+      100);
+  options.add_options()("help,h", "print this help and exit")(
+      "bags", po::value<std::vector<std::string>>(&bags)->multitoken(), "training rosbags")(
+      "out", po::value<std::string>(&out), "output directory (created)")(
+      "words", po::value<int>(&words)->default_value(words), "vocabulary size")(
+      "keyframe-distance-m",
+      po::value<double>(&keyframe_distance_m)->default_value(keyframe_distance_m),
+      "odometry travel between training keyframes [m]")(
+      "max-descriptors", po::value<int>(&max_descriptors)->default_value(max_descriptors),
+      "descriptors the vocabulary is clustered from (a seeded sample beyond that)")(
+      "seed", po::value<int>(&seed)->default_value(seed), "clustering and sampling seed")(
+      "points-topic", po::value<std::string>(&points_topic)->default_value(points_topic), "clouds")(
+      "odom-topic", po::value<std::string>(&odom_topic)->default_value(odom_topic), "odometry");
+  po::variables_map arguments;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), arguments);
+    po::notify(arguments);
+  } catch (const po::error& e) {
+    std::cerr << "train_place_model: " << e.what() << " (see --help)\n";
+    return 2;
+  }
+  if (arguments.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+  if (bags.empty() || out.empty() || words < 2 || !(keyframe_distance_m > 0) ||
+      max_descriptors < words) {
+    std::cerr
+        << "train_place_model: need --bags and --out, --words >= 2, --keyframe-distance-m > 0, "
+           "--max-descriptors >= --words\n";
+    return 2;
+  }
+
+  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
+  const core::features::FeatureExtractor extractor{core::features::FeatureParams{}};
+  std::vector<core::features::LocalFeatures> keyframes;
+  try {
+    for (const std::string& path : bags) {
+      rosbag::Bag bag(path);
+      core::preprocess::OdometryBuffer odometry;
+      core::preprocess::KeyframeSelector selector({keyframe_distance_m, M_PI});
+      // In bag order: a driver publishes a scan when its sweep ends, after the odometry at its
+      // stamp (the odometry buffer keeps only the recent past).
+      const std::size_t before = keyframes.size();
+      for (const auto& m : rosbag::View(bag, rosbag::TopicQuery({odom_topic, points_topic}))) {
+        if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
+          if (const auto pose = conversions::toPose(odom->pose.pose)) {
+            odometry.add(conversions::toStamp(odom->header.stamp), *pose);
+          }
+          continue;
+        }
+        const auto cloud = m.instantiate<sensor_msgs::PointCloud2>();
+        if (!cloud || conversions::checkCloud(*cloud, nullptr)) continue;
+        const auto pose = odometry.at(conversions::toStamp(cloud->header.stamp), 0.1);
+        if (!pose) continue;
+        if (selector.offer(conversions::toStamp(cloud->header.stamp), *pose).outcome !=
+            core::preprocess::KeyframeSelector::Outcome::kKeyframe) {
+          continue;
+        }
+        pcl::PointCloud<pcl::PointXYZI> scan;
+        conversions::toPcl(*cloud, &scan);
+        const Eigen::Vector3f up =
+            (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+        keyframes.push_back(extractor.extract(*preprocessor.process(scan, up), up));
+      }
+      std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(),
+                  keyframes.size() - before);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "train_place_model: " << e.what() << '\n';
+    return 1;
+  }
+
+  std::vector<core::features::SpinImage> descriptors;
+  for (const auto& k : keyframes)
+    descriptors.insert(descriptors.end(), k.descriptors.begin(), k.descriptors.end());
+  if (descriptors.size() < static_cast<std::size_t>(words)) {
+    std::cerr << "train_place_model: only " << descriptors.size() << " descriptors from "
+              << keyframes.size() << " keyframes for " << words << " words\n";
+    return 1;
+  }
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  if (descriptors.size() > static_cast<std::size_t>(max_descriptors)) {
+    std::shuffle(descriptors.begin(), descriptors.end(), rng);
+    descriptors.resize(static_cast<std::size_t>(max_descriptors));
+  }
+  try {
+    std::filesystem::create_directories(out);
+    const auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, words, seed);
+    std::vector<core::place_recognition::WordSet> sets;
+    for (const auto& k : keyframes) sets.push_back(vocabulary.quantize(k.descriptors));
+    const auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
+    const std::filesystem::path dir(out);
+    vocabulary.save((dir / "vocabulary.bin").string());
+    tree.save((dir / "chow_liu_tree.txt").string(), vocabulary.hash());
+    std::ofstream samples(dir / "samples.txt");
+    samples << "# ccir_mapping new-place samples 1 " << vocabulary.hash() << '\n';
+    for (const auto& set : sets) {
+      for (std::size_t i = 0; i < set.size(); ++i) samples << (i ? " " : "") << set[i];
+      samples << '\n';
+    }
+    std::ofstream model(dir / "model.yaml");
+    model << "# Place-recognition model written by train_place_model\nvocabulary_hash: "
+          << vocabulary.hash() << "\nwords: " << vocabulary.size()
+          << "\ntraining_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
+          << "\nkeyframe_distance_m: " << keyframe_distance_m << "\nbags:\n";
+    for (const auto& bag : bags)
+      model << "  - " << std::filesystem::path(bag).filename().string() << '\n';
+    if (!samples || !model) throw std::runtime_error("cannot write into " + out);
+    double words_per_keyframe = 0;
+    for (const auto& set : sets) words_per_keyframe += set.size();
+    std::printf(
+        "train_place_model: %zu words (hash %s) from %zu descriptors; %zu keyframes, "
+        "%.0f words each on average -> %s\n",
+        vocabulary.size(), vocabulary.hash().c_str(), descriptors.size(), keyframes.size(),
+        words_per_keyframe / std::max<std::size_t>(1, sets.size()), out.c_str());
+  } catch (const std::exception& e) {
+    std::cerr << "train_place_model: " << e.what() << '\n';
+    return 1;
+  }
+  return 0;
+}
