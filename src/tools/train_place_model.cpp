@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
   int seed = 1;
   std::string points_topic = "/velodyne_points";
   std::string odom_topic = "/odom";
+  core::features::FeatureParams feature_params;
+  std::string drop_horizontal = core::preprocess::toString(feature_params.drop_horizontal);
   po::options_description options(
       "Usage: train_place_model --bags A.bag [B.bag ...] --out DIR [--words 500]\n"
       "Learns the vocabulary, the Chow-Liu tree and the new-place samples from missions that do\n"
@@ -52,7 +54,14 @@ int main(int argc, char** argv) {
       "descriptors the vocabulary is clustered from (a seeded sample beyond that)")(
       "seed", po::value<int>(&seed)->default_value(seed), "clustering and sampling seed")(
       "points-topic", po::value<std::string>(&points_topic)->default_value(points_topic), "clouds")(
-      "odom-topic", po::value<std::string>(&odom_topic)->default_value(odom_topic), "odometry");
+      "odom-topic", po::value<std::string>(&odom_topic)->default_value(odom_topic), "odometry")(
+      "feature-drop-horizontal",
+      po::value<std::string>(&drop_horizontal)->default_value(drop_horizontal),
+      "degenerate-normal filter of the features: none | ground | ceiling | both")(
+      "iss-non-max-radius-m",
+      po::value<double>(&feature_params.iss_non_max_radius_m)
+          ->default_value(feature_params.iss_non_max_radius_m),
+      "ISS non-maximum suppression radius [m]");
   po::variables_map arguments;
   try {
     po::store(po::parse_command_line(argc, argv, options), arguments);
@@ -65,8 +74,10 @@ int main(int argc, char** argv) {
     std::cout << options << '\n';
     return 0;
   }
-  if (bags.empty() || out.empty() || words < 2 || !(keyframe_distance_m > 0) ||
-      max_descriptors < words) {
+  const auto filter = core::preprocess::parseHorizontalFilter(drop_horizontal);
+  if (filter) feature_params.drop_horizontal = *filter;
+  if (!filter || !feature_params.validate().empty() || bags.empty() || out.empty() || words < 2 ||
+      !(keyframe_distance_m > 0) || max_descriptors < words) {
     std::cerr
         << "train_place_model: need --bags and --out, --words >= 2, --keyframe-distance-m > 0, "
            "--max-descriptors >= --words\n";
@@ -74,7 +85,7 @@ int main(int argc, char** argv) {
   }
 
   const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
-  const core::features::FeatureExtractor extractor{core::features::FeatureParams{}};
+  const core::features::FeatureExtractor extractor(feature_params);
   std::vector<core::features::LocalFeatures> keyframes;
   try {
     for (const std::string& path : bags) {

@@ -1,0 +1,249 @@
+// eval_place_recognition: place recognition between two robots of a simulated mission, against
+// ground truth. Robot A's keyframes are the map, robot B's the queries; a candidate is true when
+// the two keyframes' true positions are within --true-distance-m. Prints JSON: candidate TP/FP of
+// FAB-MAP 2.0 and of the histogram baseline (thesis Table 4.1), and precision/recall after
+// geometric verification over the truly overlapping queries.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <yaml-cpp/yaml.h>
+#include <boost/program_options.hpp>
+
+#include "ccir_mapping/core/features/feature_extractor.h"
+#include "ccir_mapping/core/place_recognition/fabmap.h"
+#include "ccir_mapping/core/place_recognition/histogram_matcher.h"
+#include "ccir_mapping/core/preprocess/keyframe_selector.h"
+#include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
+#include "ccir_mapping/core/registration/scan_verifier.h"
+#include "ccir_mapping/ros/conversions.h"
+
+namespace po = boost::program_options;
+namespace core = ccir_mapping::core;
+namespace pr = core::place_recognition;
+namespace conversions = ccir_mapping::conversions;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Keyframe {
+  core::Stamp stamp;
+  Eigen::Vector3d world_position;
+  core::preprocess::ScanPreprocessor::OutputCloud::Ptr cloud;
+  core::features::LocalFeatures features;
+  pr::WordSet words;
+};
+
+core::Pose3 poseFromYaml(const YAML::Node& p) {
+  core::Pose3 pose = core::Pose3::Identity();
+  pose.translation() << p["x"].as<double>(), p["y"].as<double>(), p["z"].as<double>();
+  pose.linear() = Eigen::Quaterniond(p["qw"].as<double>(), p["qx"].as<double>(),
+                                     p["qy"].as<double>(), p["qz"].as<double>())
+                      .normalized()
+                      .toRotationMatrix();
+  return pose;
+}
+
+/// Keyframes of one robot's bag, with true world positions from its ground-truth odometry.
+std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& world_from_odom,
+                                  double spacing_m, const pr::Vocabulary& vocabulary,
+                                  const core::features::FeatureExtractor& extractor) {
+  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
+  rosbag::Bag bag(bag_file.string());
+  core::preprocess::OdometryBuffer odometry;
+  core::preprocess::OdometryBuffer truth;
+  core::preprocess::KeyframeSelector selector({spacing_m, M_PI});
+  std::vector<Keyframe> keyframes;
+  for (const auto& m :
+       rosbag::View(bag, rosbag::TopicQuery({"/odom", "/ground_truth", "/velodyne_points"}))) {
+    if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
+      if (const auto pose = conversions::toPose(odom->pose.pose)) {
+        (m.getTopic() == "/odom" ? odometry : truth)
+            .add(conversions::toStamp(odom->header.stamp), *pose);
+      }
+      continue;
+    }
+    const auto cloud = m.instantiate<sensor_msgs::PointCloud2>();
+    if (!cloud || conversions::checkCloud(*cloud, nullptr)) continue;
+    const core::Stamp stamp = conversions::toStamp(cloud->header.stamp);
+    const auto pose = odometry.at(stamp, 0.1);
+    const auto true_pose = truth.at(stamp, 0.1);
+    if (!pose || !true_pose) continue;
+    if (selector.offer(stamp, *pose).outcome !=
+        core::preprocess::KeyframeSelector::Outcome::kKeyframe) {
+      continue;
+    }
+    pcl::PointCloud<pcl::PointXYZI> scan;
+    conversions::toPcl(*cloud, &scan);
+    const Eigen::Vector3f up =
+        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+    Keyframe k;
+    k.stamp = stamp;
+    k.world_position = (world_from_odom * *true_pose).translation();
+    k.cloud = preprocessor.process(scan, up);
+    k.features = extractor.extract(*k.cloud, up);
+    k.words = vocabulary.quantize(k.features.descriptors);
+    keyframes.push_back(std::move(k));
+  }
+  return keyframes;
+}
+
+std::vector<pr::WordSet> readSamples(const fs::path& path, const std::string& hash) {
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line) || line.find(hash) == std::string::npos) {
+    throw std::runtime_error(path.string() + " is missing or not for vocabulary " + hash);
+  }
+  std::vector<pr::WordSet> samples;
+  while (std::getline(in, line)) {
+    std::istringstream words(line);
+    pr::WordSet set;
+    for (std::uint32_t w; words >> w;) set.push_back(w);
+    samples.push_back(set);
+  }
+  return samples;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string mission_dir;
+  std::string model_dir;
+  double spacing_m = 2.0;
+  double true_distance_m = 3.0;
+  double min_posterior = 0.5;
+  int min_votes = 5;
+  core::features::FeatureParams feature_params;
+  std::string drop_horizontal = core::preprocess::toString(feature_params.drop_horizontal);
+  po::options_description options(
+      "Usage: eval_place_recognition --mission DIR --model DIR [options]\nPrints JSON.\n\nOptions",
+      100);
+  options.add_options()("help,h", "print this help and exit")(
+      "mission", po::value<std::string>(&mission_dir), "simulate_team output (two robots used)")(
+      "model", po::value<std::string>(&model_dir), "train_place_model output")(
+      "keyframe-distance-m", po::value<double>(&spacing_m)->default_value(spacing_m),
+      "odometry travel between keyframes [m]")(
+      "true-distance-m", po::value<double>(&true_distance_m)->default_value(true_distance_m),
+      "a candidate is true within this true distance [m]")(
+      "min-posterior", po::value<double>(&min_posterior)->default_value(min_posterior),
+      "FAB-MAP posterior a candidate needs")("min-votes",
+                                             po::value<int>(&min_votes)->default_value(min_votes),
+                                             "histogram votes a candidate needs")(
+      "feature-drop-horizontal",
+      po::value<std::string>(&drop_horizontal)->default_value(drop_horizontal),
+      "degenerate-normal filter of the features: none | ground | ceiling | both (as in training)")(
+      "iss-non-max-radius-m",
+      po::value<double>(&feature_params.iss_non_max_radius_m)
+          ->default_value(feature_params.iss_non_max_radius_m),
+      "ISS non-maximum suppression radius (as in training) [m]");
+  po::variables_map arguments;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), arguments);
+    po::notify(arguments);
+  } catch (const po::error& e) {
+    std::cerr << "eval_place_recognition: " << e.what() << '\n';
+    return 2;
+  }
+  if (arguments.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+  const auto filter = core::preprocess::parseHorizontalFilter(drop_horizontal);
+  if (filter) feature_params.drop_horizontal = *filter;
+  if (!filter || !feature_params.validate().empty() || mission_dir.empty() || model_dir.empty() ||
+      !(spacing_m > 0) || !(true_distance_m > 0)) {
+    std::cerr << "eval_place_recognition: need --mission and --model (see --help)\n";
+    return 2;
+  }
+  try {
+    const pr::Vocabulary vocabulary =
+        pr::Vocabulary::load((fs::path(model_dir) / "vocabulary.bin").string());
+    const pr::ChowLiuTree tree = pr::ChowLiuTree::load(
+        (fs::path(model_dir) / "chow_liu_tree.txt").string(), vocabulary.hash());
+    const auto samples = readSamples(fs::path(model_dir) / "samples.txt", vocabulary.hash());
+    const YAML::Node mission = YAML::LoadFile((fs::path(mission_dir) / "mission.yaml").string());
+    if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
+    const core::features::FeatureExtractor extractor(feature_params);
+    std::vector<std::vector<Keyframe>> robots;
+    for (int r = 0; r < 2; ++r) {
+      const YAML::Node robot = mission["robots"][r];
+      robots.push_back(keyframesOf(fs::path(mission_dir) / robot["bag"].as<std::string>(),
+                                   poseFromYaml(robot["initial_pose_in_world"]), spacing_m,
+                                   vocabulary, extractor));
+    }
+    const auto& map = robots[0];
+    const auto& queries = robots[1];
+
+    const pr::FabMapModel model(tree, pr::FabMapParams{});
+    pr::FabMap2 fabmap(model, samples);
+    pr::HistogramParams histogram_params;
+    histogram_params.min_votes = min_votes;
+    pr::HistogramMatcher histogram(histogram_params);
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      fabmap.addPlace(map[i].words);
+      histogram.addKeyframe(i, map[i].features.descriptors);
+    }
+    const core::registration::ScanVerifier verifier{core::registration::VerificationParams{}};
+    struct Count {
+      int tp = 0, fp = 0, verified_tp = 0, verified_fp = 0;
+    } fab, hist;
+    int overlapping = 0;
+    auto near = [&](const Keyframe& a, const Keyframe& b) {
+      return (a.world_position - b.world_position).norm() <= true_distance_m;
+    };
+    for (const Keyframe& q : queries) {
+      bool overlaps = false;
+      for (const Keyframe& m : map) overlaps = overlaps || near(q, m);
+      overlapping += overlaps;
+      auto judge = [&](std::size_t place, Count& count) {
+        const bool truth = near(q, map[place]);
+        (truth ? count.tp : count.fp)++;
+        const auto v =
+            verifier.verify(*map[place].cloud, map[place].features, *q.cloud, q.features);
+        if (v.accepted) (truth ? count.verified_tp : count.verified_fp)++;
+      };
+      const auto posterior = fabmap.posterior(q.words);
+      const auto best =
+          std::max_element(posterior.begin(), posterior.end() - 1) - posterior.begin();
+      if (!map.empty() && posterior[static_cast<std::size_t>(best)] >= min_posterior) {
+        judge(static_cast<std::size_t>(best), fab);
+      }
+      const auto votes = histogram.candidates(q.features.descriptors);
+      if (!votes.empty()) judge(static_cast<std::size_t>(votes.front().keyframe), hist);
+    }
+    auto report = [&](const char* name, const Count& c, bool last) {
+      const int accepted = c.verified_tp + c.verified_fp;
+      std::printf(
+          "    \"%s\": {\"candidates_tp\": %d, \"candidates_fp\": %d, \"verified_tp\": %d, "
+          "\"verified_fp\": %d, \"precision\": %.3f, \"recall\": %.3f}%s\n",
+          name, c.tp, c.fp, c.verified_tp, c.verified_fp,
+          accepted ? double(c.verified_tp) / accepted : 1.0,
+          overlapping ? double(c.verified_tp) / overlapping : 0.0, last ? "" : ",");
+    };
+    double words = 0;
+    for (const auto& robot : robots) {
+      for (const auto& k : robot) words += k.words.size();
+    }
+    std::printf(
+        "{\n  \"benchmark\": \"place_recognition_eval\",\n  \"mission\": \"%s\",\n"
+        "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
+        "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n  \"methods\": {\n",
+        mission_dir.c_str(), map.size(), queries.size(), overlapping,
+        words / std::max<std::size_t>(1, map.size() + queries.size()));
+    report("fabmap", fab, false);
+    report("histogram", hist, true);
+    std::printf("  }\n}\n");
+  } catch (const std::exception& e) {
+    std::cerr << "eval_place_recognition: " << e.what() << '\n';
+    return 1;
+  }
+  return 0;
+}
