@@ -10,26 +10,18 @@
 #include <map>
 #include <sstream>
 
-#include <nav_msgs/Odometry.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <sensor_msgs/PointCloud2.h>
 #include <yaml-cpp/yaml.h>
 #include <boost/program_options.hpp>
 
+#include "bag_keyframes.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
-#include "ccir_mapping/core/preprocess/keyframe_selector.h"
-#include "ccir_mapping/core/preprocess/odometry_buffer.h"
-#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/core/registration/scan_verifier.h"
-#include "ccir_mapping/ros/conversions.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
 namespace pr = core::place_recognition;
-namespace conversions = ccir_mapping::conversions;
 namespace fs = std::filesystem;
 
 namespace {
@@ -56,43 +48,19 @@ core::Pose3 poseFromYaml(const YAML::Node& p) {
 std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& world_from_odom,
                                   double spacing_m, const pr::Vocabulary& vocabulary,
                                   const core::features::FeatureExtractor& extractor) {
-  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
-  rosbag::Bag bag(bag_file.string());
-  core::preprocess::OdometryBuffer odometry;
-  core::preprocess::OdometryBuffer truth;
-  core::preprocess::KeyframeSelector selector({spacing_m, M_PI});
+  BagKeyframeOptions options;
+  options.truth_topic = "/ground_truth";
+  options.keyframe_distance_m = spacing_m;
   std::vector<Keyframe> keyframes;
-  for (const auto& m :
-       rosbag::View(bag, rosbag::TopicQuery({"/odom", "/ground_truth", "/velodyne_points"}))) {
-    if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
-      if (const auto pose = conversions::toPose(odom->pose.pose)) {
-        (m.getTopic() == "/odom" ? odometry : truth)
-            .add(conversions::toStamp(odom->header.stamp), *pose);
-      }
-      continue;
-    }
-    const auto cloud = m.instantiate<sensor_msgs::PointCloud2>();
-    if (!cloud || conversions::checkCloud(*cloud, nullptr)) continue;
-    const core::Stamp stamp = conversions::toStamp(cloud->header.stamp);
-    const auto pose = odometry.at(stamp, 0.1);
-    const auto true_pose = truth.at(stamp, 0.1);
-    if (!pose || !true_pose) continue;
-    if (selector.offer(stamp, *pose).outcome !=
-        core::preprocess::KeyframeSelector::Outcome::kKeyframe) {
-      continue;
-    }
-    pcl::PointCloud<pcl::PointXYZI> scan;
-    conversions::toPcl(*cloud, &scan);
-    const Eigen::Vector3f up =
-        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+  forEachBagKeyframe(bag_file.string(), options, extractor, [&](BagKeyframe&& b) {
     Keyframe k;
-    k.stamp = stamp;
-    k.world_position = (world_from_odom * *true_pose).translation();
-    k.cloud = preprocessor.process(scan, up);
-    k.features = extractor.extract(*k.cloud, up);
-    k.words = vocabulary.quantize(k.features.descriptors);
+    k.stamp = b.stamp;
+    k.world_position = (world_from_odom * *b.true_pose).translation();
+    k.cloud = std::move(b.cloud);
+    k.words = vocabulary.quantize(b.features.descriptors);
+    k.features = std::move(b.features);
     keyframes.push_back(std::move(k));
-  }
+  });
   return keyframes;
 }
 

@@ -10,22 +10,14 @@
 #include <iostream>
 #include <random>
 
-#include <nav_msgs/Odometry.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <sensor_msgs/PointCloud2.h>
 #include <boost/program_options.hpp>
 
+#include "bag_keyframes.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/chow_liu_tree.h"
-#include "ccir_mapping/core/preprocess/keyframe_selector.h"
-#include "ccir_mapping/core/preprocess/odometry_buffer.h"
-#include "ccir_mapping/core/preprocess/scan_preprocessor.h"
-#include "ccir_mapping/ros/conversions.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
-namespace conversions = ccir_mapping::conversions;
 
 int main(int argc, char** argv) {
   std::vector<std::string> bags;
@@ -84,40 +76,18 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
   const core::features::FeatureExtractor extractor(feature_params);
+  BagKeyframeOptions keyframe_options;
+  keyframe_options.points_topic = points_topic;
+  keyframe_options.odom_topic = odom_topic;
+  keyframe_options.keyframe_distance_m = keyframe_distance_m;
   std::vector<core::features::LocalFeatures> keyframes;
   try {
     for (const std::string& path : bags) {
-      rosbag::Bag bag(path);
-      core::preprocess::OdometryBuffer odometry;
-      core::preprocess::KeyframeSelector selector({keyframe_distance_m, M_PI});
-      // In bag order: a driver publishes a scan when its sweep ends, after the odometry at its
-      // stamp (the odometry buffer keeps only the recent past).
-      const std::size_t before = keyframes.size();
-      for (const auto& m : rosbag::View(bag, rosbag::TopicQuery({odom_topic, points_topic}))) {
-        if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
-          if (const auto pose = conversions::toPose(odom->pose.pose)) {
-            odometry.add(conversions::toStamp(odom->header.stamp), *pose);
-          }
-          continue;
-        }
-        const auto cloud = m.instantiate<sensor_msgs::PointCloud2>();
-        if (!cloud || conversions::checkCloud(*cloud, nullptr)) continue;
-        const auto pose = odometry.at(conversions::toStamp(cloud->header.stamp), 0.1);
-        if (!pose) continue;
-        if (selector.offer(conversions::toStamp(cloud->header.stamp), *pose).outcome !=
-            core::preprocess::KeyframeSelector::Outcome::kKeyframe) {
-          continue;
-        }
-        pcl::PointCloud<pcl::PointXYZI> scan;
-        conversions::toPcl(*cloud, &scan);
-        const Eigen::Vector3f up =
-            (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
-        keyframes.push_back(extractor.extract(*preprocessor.process(scan, up), up));
-      }
-      std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(),
-                  keyframes.size() - before);
+      const std::size_t count =
+          forEachBagKeyframe(path, keyframe_options, extractor,
+                             [&](BagKeyframe&& k) { keyframes.push_back(std::move(k.features)); });
+      std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(), count);
     }
   } catch (const std::exception& e) {
     std::cerr << "train_place_model: " << e.what() << '\n';
