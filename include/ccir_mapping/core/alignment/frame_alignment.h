@@ -1,6 +1,7 @@
 // The transform between two robots' frames from candidate inter-robot loop closures, most of
 // them possibly false: uncertainty-aware EM (Dong et al., ICRA 2015, after Indelman et al., ICRA
 // 2014) started from k-means clusters of the transforms the candidates imply.
+// The EM is written here (no library has it); the clusters are OpenCV's k-means.
 #pragma once
 
 #include <string>

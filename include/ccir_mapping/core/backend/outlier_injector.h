@@ -1,5 +1,6 @@
 // False loop closures for robust-back-end benchmarks, following the convention of the
 // robust-SLAM literature (Vertigo's generator, described in shared/data/SOURCES.md).
+// Written here: the generator is a script outside our libraries, and we need it seeded in C++.
 #pragma once
 
 #include <cstdint>

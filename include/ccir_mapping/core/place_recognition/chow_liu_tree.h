@@ -1,5 +1,8 @@
 // The Chow-Liu tree over word occurrences: the maximum-mutual-information spanning tree, with
 // smoothed marginals and conditionals (FAB-MAP's appearance prior, algorithms.md section 1.3).
+// Written here: none of our libraries learns a Chow-Liu tree (openFABMAP is not packaged for
+// Debian), and a dense Prim over mutual information computed on the fly needs no V x V edge list,
+// which Boost Graph's Prim would.
 #pragma once
 
 #include <string>

@@ -3,6 +3,8 @@
 // posterior over mapped places. FabMap evaluates every word of every place (FAB-MAP 1.0);
 // FabMap2 keeps an inverted index and visits only the postings of observed words and their
 // children (FAB-MAP 2.0), with identical posteriors.
+// Written here: OpenCV dropped its openFABMAP port after 2.4 and openFABMAP is not packaged for
+// Debian; the vocabulary uses OpenCV k-means and FLANN.
 #pragma once
 
 #include <array>
