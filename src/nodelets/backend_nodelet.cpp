@@ -118,13 +118,15 @@ class BackendNodelet final : public PipelineNodelet {
     const Eigen::LLT<core::alignment::Matrix6> llt(loop.covariance);
     const bool mine = loop.robot_from == settings_.frames.robot_name ||
                       loop.robot_to == settings_.frames.robot_name;
-    if (!pose || llt.info() != Eigen::Success || !mine) {
+    // LLT does not notice NaN entries.
+    const bool covariance_ok = loop.covariance.allFinite() && llt.info() == Eigen::Success;
+    if (!pose || !covariance_ok || !mine) {
       NODELET_WARN_THROTTLE(5.0, "dropping loop closure %s/%lu -> %s/%lu: %s",
                             msg->robot_from.c_str(), static_cast<unsigned long>(msg->keyframe_from),
                             msg->robot_to.c_str(), static_cast<unsigned long>(msg->keyframe_to),
                             !pose   ? "relative pose not finite"
                             : !mine ? "it does not involve this robot"
-                                    : "covariance not positive definite");
+                                    : "covariance not finite and positive definite");
       count("dropped loop_closures");
       return;
     }
@@ -155,11 +157,25 @@ class BackendNodelet final : public PipelineNodelet {
       if (!graph_->addKeyframe(own->id, own->stamp, own->pose)) {
         NODELET_WARN_THROTTLE(5.0, "keyframe %lu ignored: ids must increase",
                               static_cast<unsigned long>(own->id));
+        count("dropped keyframes");
       }
     } else if (const auto* peer = std::get_if<PeerKeyframe>(&input)) {
-      graph_->addPeerKeyframe(peer->robot, peer->id, peer->pose);
+      if (!graph_->addPeerKeyframe(peer->robot, peer->id, peer->pose)) {
+        NODELET_WARN_THROTTLE(5.0, "teammate keyframe %s/%lu rejected by the graph",
+                              peer->robot.c_str(), static_cast<unsigned long>(peer->id));
+        count("dropped inbox/scans");
+      }
     } else {
-      graph_->addLoopClosure(std::get<core::backend::LoopClosureData>(input));
+      // The callback checked pose, covariance and ownership; the graph also refuses a keyframe
+      // looped to itself.
+      const auto& loop = std::get<core::backend::LoopClosureData>(input);
+      if (!graph_->addLoopClosure(loop)) {
+        NODELET_WARN_THROTTLE(5.0, "loop closure %s/%lu -> %s/%lu rejected by the graph",
+                              loop.robot_from.c_str(),
+                              static_cast<unsigned long>(loop.keyframe_from), loop.robot_to.c_str(),
+                              static_cast<unsigned long>(loop.keyframe_to));
+        count("dropped loop_closures");
+      }
     }
   }
 

@@ -1,8 +1,11 @@
 // Two robots' keyframes and inter-robot loop closures, most of them false, into robot_a's
 // pipeline (launch/robot.launch): the Backend must put the true transform to robot_b's frame on
-// tf and announce it as a valid TeamTransform.
+// tf and announce it as a valid TeamTransform. Unusable closures among them are counted as dropped.
+#include <cmath>
+
 #include <gtest/gtest.h>
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
@@ -29,6 +32,17 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   TeamTransform::ConstPtr team;
   ros::Subscriber team_sub = nh.subscribe<TeamTransform>(
       "team_transforms", 10, [&](const TeamTransform::ConstPtr& m) { team = m; });
+  double dropped_loops = -1.0;
+  ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& array) {
+        for (const auto& status : array->status) {
+          if (status.name.find("backend: flow") == std::string::npos) continue;
+          for (const auto& entry : status.values) {
+            if (entry.key == "dropped loop_closures messages")
+              dropped_loops = std::stod(entry.value);
+          }
+        }
+      });
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
   ASSERT_TRUE(waitFor(
@@ -78,6 +92,17 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
     loop->method = "fabmap";
     loops.publish(loop);
   }
+  // Unusable: a keyframe looped to itself, and a covariance with a NaN (which LLT lets through).
+  auto self_loop = boost::make_shared<LoopClosure>();
+  self_loop->robot_from = self_loop->robot_to = "robot_a";
+  self_loop->keyframe_from = self_loop->keyframe_to = 3;
+  self_loop->relative_pose.orientation.w = 1.0;
+  for (int d = 0; d < 6; ++d) self_loop->covariance[d * 7] = 0.01;
+  loops.publish(self_loop);
+  auto nan_covariance = boost::make_shared<LoopClosure>(*self_loop);
+  nan_covariance->robot_to = "robot_b";
+  nan_covariance->covariance[1] = nan_covariance->covariance[6] = std::nan("");
+  loops.publish(nan_covariance);
 
   ASSERT_TRUE(waitFor([&] { return team && team->valid; }, 30.0))
       << "no valid team transform (last: "
@@ -89,6 +114,8 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_EQ(team->child_frame_id, "robot_b/map");
   EXPECT_GE(team->inliers, 12U);
   EXPECT_EQ(team->candidates, 60U);
+  EXPECT_TRUE(waitFor([&] { return dropped_loops == 2.0; }, 10.0))
+      << "dropped loop closures reported: " << dropped_loops;
 
   std::string why;
   ASSERT_TRUE(waitFor(
