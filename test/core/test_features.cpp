@@ -4,11 +4,13 @@
 
 #include <cmath>
 #include <random>
+#include <set>
 
 #include <Eigen/Geometry>
 
 #include "ccir_mapping/core/features/descriptor_matcher.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
+#include "ccir_mapping/core/registration/scan_verifier.h"
 
 namespace ccir_mapping::core::features {
 namespace {
@@ -295,5 +297,78 @@ TEST(DescriptorMatching, MutualNearestWithRatioTest) {
   EXPECT_TRUE(mutualMatches({a[0]}, {a[0]}, 0.8).empty());  // no second neighbour: no ratio
 }
 
+TEST(DescriptorMatcher, NearestMatchesKeepRepeatedStructureForRansac) {
+  // Three identical descriptors (the same pillar corner seen thrice) fail any ratio test; the k
+  // nearest keep every pairing among them, each pair once.
+  SpinImage corner;
+  corner.fill(0.5F);
+  SpinImage other;
+  other.fill(0.0F);
+  const std::vector<SpinImage> a = {corner, corner, other};
+  const std::vector<SpinImage> b = {corner, other, corner};
+  EXPECT_TRUE(mutualMatches(a, b, 0.8).size() == 1U);  // only other-other survives the ratio
+  const auto matches = nearestMatches(a, b, 2);
+  const std::set<std::pair<int, int>> unique(matches.begin(), matches.end());
+  EXPECT_EQ(unique.size(), matches.size());
+  for (const auto& pair : {std::pair{0, 0}, {0, 2}, {1, 0}, {1, 2}, {2, 1}}) {
+    EXPECT_EQ(unique.count(pair), 1U) << pair.first << "-" << pair.second;
+  }
+  EXPECT_TRUE(nearestMatches(a, {}, 3).empty());
+}
+
 }  // namespace
 }  // namespace ccir_mapping::core::features
+
+namespace ccir_mapping::core::registration {
+namespace {
+
+TEST(ScanVerifier, DescriptorsWithoutGeometricConsensusAreRejectedEvenOnIdenticalClouds) {
+  // The two clouds are the same place, so GICP from identity would fit perfectly; but the
+  // descriptors pair keypoints at random positions, so no rigid transform explains them.
+  // (PCL's CorrespondenceRejectorSampleConsensus falls back to identity when RANSAC fails.)
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-10.0F, 10.0F);
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  for (int i = 0; i < 2000; ++i) {
+    pcl::PointXYZINormal p;
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = 0.1F * u(rng);
+    p.normal_z = 1.0F;
+    cloud.push_back(p);
+  }
+  features::LocalFeatures from;
+  features::LocalFeatures to;
+  for (int i = 0; i < 40; ++i) {
+    features::SpinImage d;
+    for (float& v : d) v = 0.5F + 0.05F * u(rng);
+    from.keypoints.emplace_back(u(rng), u(rng), u(rng));
+    from.descriptors.push_back(d);
+    to.keypoints.emplace_back(u(rng), u(rng), u(rng));
+    to.descriptors.push_back(d);
+  }
+  const ScanVerifier verifier{VerificationParams{}};
+  const Verification v = verifier.verify(cloud, from, cloud, to);
+  EXPECT_FALSE(v.accepted);
+  EXPECT_LT(v.inliers, VerificationParams{}.min_inliers) << v.reason;
+  EXPECT_NE(v.reason.find("agree"), std::string::npos) << v.reason;
+
+  // The same keypoints on both sides (a rigid identity) verify.
+  const Verification same = verifier.verify(cloud, from, cloud, from);
+  EXPECT_TRUE(same.accepted) << same.reason;
+  EXPECT_LT(same.relative.translation().norm(), 0.05);
+}
+
+TEST(ScanVerifier, InvalidParametersAreNamed) {
+  VerificationParams params;
+  params.match_neighbors = 0;
+  try {
+    ScanVerifier verifier(params);
+    FAIL() << "accepted match_neighbors = 0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("match_neighbors"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::registration

@@ -1,10 +1,13 @@
 #include "ccir_mapping/core/registration/scan_verifier.h"
 
 #include <cmath>
+#include <numeric>
+#include <set>
 #include <stdexcept>
 
-#include <pcl/registration/correspondence_rejection_sample_consensus.h>
 #include <pcl/registration/gicp.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_registration.h>
 
 #include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/features/descriptor_matcher.h"
@@ -25,17 +28,11 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr prepared(const pcl::PointCloud<pcl::PointXYZ
   return preprocess::voxelDownsample(cropped, voxel_m);
 }
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr keypoints(const features::LocalFeatures& features) {
-  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  for (const auto& k : features.keypoints) cloud->push_back(pcl::PointXYZ(k.x(), k.y(), k.z()));
-  return cloud;
-}
-
 }  // namespace
 
 std::vector<std::string> VerificationParams::validate() const {
   ParamCheck check;
-  check.inHalfOpenRange("match_ratio", match_ratio, 0.0, 1.0);
+  check.inRange("match_neighbors", match_neighbors, 1, 100);
   check.inHalfOpenRange("ransac_inlier_m", ransac_inlier_m, 0.0, 100.0);
   check.inRange("ransac_iterations", ransac_iterations, 1, 1000000);
   check.inRange("min_inliers", min_inliers, 3, 100000);
@@ -57,33 +54,50 @@ Verification ScanVerifier::verify(const pcl::PointCloud<pcl::PointXYZINormal>& f
                                   const pcl::PointCloud<pcl::PointXYZINormal>& to_cloud,
                                   const features::LocalFeatures& to) const {
   Verification v;
-  // Correspondences: index_query in "to" (the source moved onto "from"), index_match in "from".
+  // Correspondences (i in "to", the source moved onto "from"; j in "from"), one point pair each:
+  // the sample-consensus model keys pairs by source index, so a keypoint paired several times
+  // must appear once per pair. (PCL's CorrespondenceRejectorSampleConsensus is not used: it
+  // keeps every correspondence with an identity transform when RANSAC fails.)
   const auto matches =
-      features::mutualMatches(to.descriptors, from.descriptors, params_.match_ratio);
+      features::nearestMatches(to.descriptors, from.descriptors, params_.match_neighbors);
   v.matches = static_cast<int>(matches.size());
-  if (v.matches < params_.min_inliers) {
-    v.reason = std::to_string(v.matches) + " mutual descriptor matches, need " +
+  auto source = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  auto target = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const auto& [i, j] : matches) {
+    const Eigen::Vector3f& s = to.keypoints[static_cast<std::size_t>(i)];
+    const Eigen::Vector3f& t = from.keypoints[static_cast<std::size_t>(j)];
+    source->push_back(pcl::PointXYZ(s.x(), s.y(), s.z()));
+    target->push_back(pcl::PointXYZ(t.x(), t.y(), t.z()));
+  }
+  if (v.matches < 3) {
+    v.reason = std::to_string(v.matches) + " descriptor correspondences, need 3";
+    return v;
+  }
+  pcl::Indices pairs(matches.size());
+  std::iota(pairs.begin(), pairs.end(), 0);
+  auto model =
+      pcl::make_shared<pcl::SampleConsensusModelRegistration<pcl::PointXYZ>>(source, pairs);
+  model->setInputTarget(target, pairs);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params_.ransac_inlier_m);
+  ransac.setMaxIterations(params_.ransac_iterations);
+  if (!ransac.computeModel() || !ransac.refineModel()) {
+    v.reason = "RANSAC found no transform in " + std::to_string(v.matches) + " correspondences";
+    return v;
+  }
+  pcl::Indices inliers;
+  ransac.getInliers(inliers);
+  std::set<int> inlier_keypoints;
+  for (const int k : inliers) inlier_keypoints.insert(matches[static_cast<std::size_t>(k)].first);
+  v.inliers = static_cast<int>(inlier_keypoints.size());
+  if (v.inliers < params_.min_inliers) {
+    v.reason = std::to_string(v.inliers) + " keypoints agree on a transform, need " +
                std::to_string(params_.min_inliers);
     return v;
   }
-  auto correspondences = pcl::make_shared<pcl::Correspondences>();
-  for (const auto& [i, j] : matches) correspondences->emplace_back(i, j, 0.0F);
-  pcl::registration::CorrespondenceRejectorSampleConsensus<pcl::PointXYZ> ransac;
-  ransac.setInputSource(keypoints(to));
-  ransac.setInputTarget(keypoints(from));
-  ransac.setInlierThreshold(params_.ransac_inlier_m);
-  ransac.setMaximumIterations(params_.ransac_iterations);
-  ransac.setRefineModel(true);
-  ransac.setInputCorrespondences(correspondences);
-  pcl::Correspondences inliers;
-  ransac.getCorrespondences(inliers);
-  v.inliers = static_cast<int>(inliers.size());
-  if (v.inliers < params_.min_inliers) {
-    v.reason = std::to_string(v.inliers) + " RANSAC inliers of " + std::to_string(v.matches) +
-               " matches, need " + std::to_string(params_.min_inliers);
-    return v;
-  }
-  const Eigen::Matrix4f initial = ransac.getBestTransformation();
+  Eigen::VectorXf coefficients;
+  ransac.getModelCoefficients(coefficients);
+  const Eigen::Matrix4f initial =
+      Eigen::Map<const Eigen::Matrix<float, 4, 4, Eigen::RowMajor>>(coefficients.data());
 
   pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
   gicp.setInputSource(prepared(to_cloud, params_.gicp_voxel_m, params_.gicp_max_range_m));
@@ -98,9 +112,8 @@ Verification ScanVerifier::verify(const pcl::PointCloud<pcl::PointXYZINormal>& f
   }
   v.fitness_m2 = gicp.getFitnessScore(1.0);
   v.relative.matrix() = gicp.getFinalTransformation().cast<double>();
-  const double variance = std::max(1e-4, v.fitness_m2 / v.inliers);
-  v.covariance = alignment::Matrix6::Identity() * variance;
-  v.covariance.bottomRightCorner<3, 3>() *= 0.1;  // radians: ~0.3 rad per metre of spread
+  v.covariance = alignment::Matrix6::Identity() * std::max(0.01, v.fitness_m2);
+  v.covariance.bottomRightCorner<3, 3>() *= 0.1;
   if (!(v.fitness_m2 <= params_.max_fitness_m2)) {
     v.reason = "GICP fitness " + std::to_string(v.fitness_m2) + " m^2 above " +
                std::to_string(params_.max_fitness_m2);

@@ -13,4 +13,10 @@ namespace ccir_mapping::core::features {
 std::vector<std::pair<int, int>> mutualMatches(const std::vector<SpinImage>& a,
                                                const std::vector<SpinImage>& b, double ratio);
 
+/// Pairs (i in a, j in b) where j is among i's k nearest descriptors or i among j's, each pair
+/// once. Where the place repeats (pillars, drifts), the true partner is often not the nearest:
+/// RANSAC, not a ratio test, sorts these out.
+std::vector<std::pair<int, int>> nearestMatches(const std::vector<SpinImage>& a,
+                                                const std::vector<SpinImage>& b, int k);
+
 }  // namespace ccir_mapping::core::features

@@ -1,4 +1,4 @@
-// Geometric verification of a place-recognition candidate: RANSAC over mutual spin-image
+// Geometric verification of a place-recognition candidate: RANSAC over nearest spin-image
 // correspondences for an initial transform, GICP to refine it, acceptance on inliers and fitness.
 #pragma once
 
@@ -14,11 +14,13 @@
 namespace ccir_mapping::core::registration {
 
 struct VerificationParams {
-  /// Lowe's ratio of the mutual descriptor matching.
-  double match_ratio = 0.8;
-  /// RANSAC (PCL CorrespondenceRejectorSampleConsensus): inlier distance and iterations.
+  /// Each keypoint is paired with its this many nearest descriptors in the other scan (both
+  /// ways): in a repetitive mine the true partner is often second or third.
+  int match_neighbors = 3;
+  /// RANSAC (PCL's registration sample-consensus model): inlier distance and iterations.
   double ransac_inlier_m = 0.5;
-  int ransac_iterations = 2000;
+  int ransac_iterations = 5000;
+  /// Distinct keypoints of the candidate scan among the RANSAC inliers.
   int min_inliers = 8;
   /// GICP on the two clouds, down-sampled to this voxel and cropped to this range.
   double gicp_voxel_m = 0.2;
@@ -35,8 +37,9 @@ struct Verification {
   bool accepted = false;
   /// Pose of the candidate scan ("to") in the query scan's frame ("from").
   Pose3 relative = Pose3::Identity();
-  /// Of `relative`, [x y z, rotation vector]: isotropic, from the GICP fitness (sigma^2 =
-  /// fitness / inliers per axis, floored) - a working approximation, not a GICP Hessian.
+  /// Of `relative`, [x y z, rotation vector]: isotropic, the GICP fitness per axis (floored at
+  /// (0.1 m)^2, what sparse 16-beam scans at a 0.2 m voxel support), a tenth of it in rad^2 -
+  /// a working approximation, not a GICP Hessian.
   alignment::Matrix6 covariance = alignment::Matrix6::Identity();
   int matches = 0;
   int inliers = 0;
