@@ -1,27 +1,50 @@
-// Matcher: keyframes -> features (word sets), correspondences and loop closures. Until the
-// place-recognition core lands it publishes an empty word set per keyframe and counts what
-// teammates send.
+// Matcher: place recognition and loop-closure detection. Own keyframes -> features (word sets
+// for teammates) and intra-robot loop closures; a teammate's word set -> correspondences (c_k of
+// the local keyframes: CCIR's loop-closure potential); a teammate's scan -> inter-robot loop
+// closures. The work is PlaceMatcher's; this converts messages and publishes.
+#include <atomic>
+#include <chrono>
+#include <memory>
+
+#include <ros/package.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Correspondences.h"
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/KeyframeFeatures.h"
 #include "ccir_mapping/LoopClosure.h"
+#include "ccir_mapping/core/place_recognition/place_matcher.h"
+#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
 namespace ccir_mapping {
 
+namespace pr = core::place_recognition;
+
 class MatcherNodelet final : public PipelineNodelet {
  private:
   void onInit() override {
     if (!loadSettings(settings_)) return;
+    const std::string model_dir = settings_.core.model_dir.empty()
+                                      ? ros::package::getPath("ccir_mapping") + "/models/sim_mine"
+                                      : settings_.core.model_dir;
+    try {
+      matcher_ =
+          std::make_unique<pr::PlaceMatcher>(settings_.core, pr::PlaceModel::load(model_dir));
+    } catch (const std::exception& e) {
+      NODELET_FATAL("~model_dir: cannot load the place-recognition model: %s", e.what());
+      return;
+    }
+    NODELET_INFO("place recognition: %s, model %s (%zu words, vocabulary %s)",
+                 pr::toString(settings_.core.method), model_dir.c_str(),
+                 matcher_->model().vocabulary.size(), vocabularyHash().c_str());
     ros::NodeHandle& nh = getNodeHandle();
     features_pub_ = nh.advertise<KeyframeFeatures>(topics::kFeatures, topics::kMessageQueueSize);
     correspondences_pub_ =
         nh.advertise<Correspondences>(topics::kCorrespondences, topics::kMessageQueueSize);
-    loop_pub_ = nh.advertise<LoopClosure>(topics::kLoopClosures, topics::kMessageQueueSize);
+    loop_pub_ = nh.advertise<LoopClosure>(topics::kLoopClosures, topics::kLoopClosureQueueSize);
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &MatcherNodelet::onKeyframe, this);
     inbox_features_sub_ = nh.subscribe(topics::kInboxFeatures, topics::kMessageQueueSize,
@@ -30,32 +53,136 @@ class MatcherNodelet final : public PipelineNodelet {
                                     &MatcherNodelet::onPeerScan, this);
   }
 
+  const std::string& vocabularyHash() const { return matcher_->model().vocabulary.hash(); }
+
+  /// Features, words and verification cloud of a keyframe, or nullopt (warned, counted).
+  std::optional<pr::DescribedKeyframe> describe(const Keyframe& keyframe, const char* flow) {
+    const auto pose = conversions::toPose(keyframe.odom_pose);
+    pcl::PointCloud<pcl::PointXYZINormal> cloud;
+    std::optional<std::string> error = conversions::toKeyframeCloud(keyframe.cloud, &cloud);
+    if (!error && !pose) error = "odom_pose is not finite";
+    if (error) {
+      NODELET_WARN_THROTTLE(5.0, "dropping %s keyframe %lu of %s: %s", flow,
+                            static_cast<unsigned long>(keyframe.id), keyframe.robot.c_str(),
+                            error->c_str());
+      count(std::string("dropped ") + flow);
+      return std::nullopt;
+    }
+    // Gravity up in the sensor frame (odometry frames are gravity-aligned).
+    const Eigen::Vector3f up =
+        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+    const auto start = std::chrono::steady_clock::now();
+    auto described =
+        matcher_->describe(keyframe.id, conversions::toStamp(keyframe.header.stamp), cloud, up);
+    describe_us_ +=
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
+                                       std::chrono::steady_clock::now() - start)
+                                       .count());
+    ++described_;
+    return described;
+  }
+
+  /// Publishes the best verified candidate, if any, as a loop closure from a local keyframe.
+  void publishBest(const std::vector<pr::MatchCandidate>& candidates, const std::string& robot_to,
+                   core::KeyframeId keyframe_to, const ros::Time& stamp) {
+    verified_ += candidates.size();
+    const pr::MatchCandidate* best = pr::bestAccepted(candidates);
+    if (!best) return;
+    auto loop = boost::make_shared<LoopClosure>();
+    loop->header.stamp = stamp;
+    loop->robot_from = settings_.frames.robot_name;
+    loop->keyframe_from = best->keyframe;
+    loop->robot_to = robot_to;
+    loop->keyframe_to = keyframe_to;
+    loop->relative_pose = conversions::toPoseMsg(best->verification.relative);
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) loop->covariance[r * 6 + c] = best->verification.covariance(r, c);
+    }
+    loop->match_score = best->score;
+    loop->fitness_m2 = best->verification.fitness_m2;
+    loop->inliers = static_cast<std::uint32_t>(best->verification.inliers);
+    loop->method = pr::toString(settings_.core.method);
+    count(robot_to == settings_.frames.robot_name ? "out loop_closures (own)"
+                                                  : "out loop_closures (teammates)");
+    loop_pub_.publish(loop);
+  }
+
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
     count("in keyframes");
+    auto described = describe(*keyframe, "own");
+    if (!described) return;
     auto features = boost::make_shared<KeyframeFeatures>();
     features->header = keyframe->header;
     features->robot = keyframe->robot;
     features->keyframe_id = keyframe->id;
+    features->vocabulary_hash = vocabularyHash();
+    features->words = described->words;
+    features->descriptor_count =
+        static_cast<std::uint32_t>(described->scan.features.descriptors.size());
     count("out features");
     features_pub_.publish(features);
+    const auto candidates = matcher_->addOwn(std::move(*described));
+    places_ = matcher_->places();
+    publishBest(candidates, settings_.frames.robot_name, keyframe->id, keyframe->header.stamp);
   }
 
   bool fromTeammate(const std::string& robot, const char* what) {
     if (robot != settings_.frames.robot_name) return true;
     NODELET_WARN_THROTTLE(5.0, "ignoring %s from this robot itself on the inbox (bridge loop?)",
                           what);
+    count(std::string("dropped ") + what + " (own)");
     return false;
   }
 
   void onPeerFeatures(const KeyframeFeatures::ConstPtr& features) {
-    if (fromTeammate(features->robot, "features")) count("in inbox/features");
+    count("in inbox/features");
+    if (!fromTeammate(features->robot, "features")) return;
+    if (features->vocabulary_hash != vocabularyHash()) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "refusing features of %s keyframe %lu: vocabulary %s, this robot uses "
+                            "%s (give every robot the same ~model_dir)",
+                            features->robot.c_str(),
+                            static_cast<unsigned long>(features->keyframe_id),
+                            features->vocabulary_hash.c_str(), vocabularyHash().c_str());
+      count("dropped features (other vocabulary)");
+      return;
+    }
+    auto reply = boost::make_shared<Correspondences>();
+    reply->header.stamp = features->header.stamp;
+    reply->robot = settings_.frames.robot_name;
+    reply->peer = features->robot;
+    reply->peer_keyframe_id = features->keyframe_id;
+    for (const auto& [keyframe, shared] : matcher_->correspondences(features->words)) {
+      reply->keyframe_ids.push_back(keyframe);
+      reply->counts.push_back(static_cast<std::uint32_t>(shared));
+    }
+    count("out correspondences");
+    correspondences_pub_.publish(reply);
   }
 
   void onPeerScan(const Keyframe::ConstPtr& scan) {
-    if (fromTeammate(scan->robot, "a scan")) count("in inbox/scans", scan->cloud.data.size());
+    count("in inbox/scans", scan->cloud.data.size());
+    if (!fromTeammate(scan->robot, "scans")) return;
+    const auto described = describe(*scan, "teammate");
+    if (!described) return;
+    publishBest(matcher_->matchTeammate(*described), scan->robot, scan->id, scan->header.stamp);
+  }
+
+  void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
+    status.add("places", places_.load());
+    status.add("candidates verified", verified_.load());
+    if (const std::size_t n = described_.load()) {
+      status.add("ms to describe a keyframe (mean)", 1e-3 * describe_us_.load() / n);
+    }
   }
 
   ros_params::MatcherSettings settings_;
+  std::unique_ptr<pr::PlaceMatcher> matcher_;
+  // For diagnostics, which run on another thread.
+  std::atomic<std::size_t> places_{0};
+  std::atomic<std::size_t> described_{0};
+  std::atomic<std::size_t> verified_{0};
+  std::atomic<std::uint64_t> describe_us_{0};
   ros::Publisher features_pub_;
   ros::Publisher correspondences_pub_;
   ros::Publisher loop_pub_;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <string_view>
 
+#include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointField.h>
 #include <tf2_eigen/tf2_eigen.h>
 
@@ -174,6 +175,21 @@ void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI
       }
     }
   }
+}
+
+std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud,
+                                           pcl::PointCloud<pcl::PointXYZINormal>* out) {
+  out->clear();
+  if (auto error = checkCloud(cloud, nullptr)) return error;
+  for (const char* name : {"intensity", "normal_x", "normal_y", "normal_z"}) {
+    const sensor_msgs::PointField* field = findField(cloud, name);
+    if (!field || field->datatype != sensor_msgs::PointField::FLOAT32 || field->count != 1 ||
+        field->offset + 4 > cloud.point_step) {
+      return std::string("field '") + name + "' is missing or not one FLOAT32 inside point_step";
+    }
+  }
+  pcl::fromROSMsg(cloud, *out);  // fields and buffer size checked above
+  return std::nullopt;
 }
 
 }  // namespace ccir_mapping::conversions

@@ -98,6 +98,9 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("model_dir", p.model_dir);
   reader.read("min_correspondences", p.min_correspondences);
   reader.read("loop_exclusion_s", p.loop_exclusion_s);
+  reader.read("max_candidates", p.max_candidates);
+  reader.read("min_inliers", p.min_inliers);
+  reader.read("max_fitness_m2", p.max_fitness_m2);
   reader.addErrors(p.validate());
 }
 

@@ -9,12 +9,13 @@
 #include <fstream>
 #include <iostream>
 #include <random>
+#include <sstream>
 
 #include <boost/program_options.hpp>
 
 #include "bag_keyframes.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
-#include "ccir_mapping/core/place_recognition/chow_liu_tree.h"
+#include "ccir_mapping/core/place_recognition/place_model.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
@@ -108,35 +109,26 @@ int main(int argc, char** argv) {
     descriptors.resize(static_cast<std::size_t>(max_descriptors));
   }
   try {
-    std::filesystem::create_directories(out);
-    const auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, words, seed);
+    auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, words, seed);
     std::vector<core::place_recognition::WordSet> sets;
     for (const auto& k : keyframes) sets.push_back(vocabulary.quantize(k.descriptors));
-    const auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
-    const std::filesystem::path dir(out);
-    vocabulary.save((dir / "vocabulary.bin").string());
-    tree.save((dir / "chow_liu_tree.txt").string(), vocabulary.hash());
-    std::ofstream samples(dir / "samples.txt");
-    samples << "# ccir_mapping new-place samples 1 " << vocabulary.hash() << '\n';
-    for (const auto& set : sets) {
-      for (std::size_t i = 0; i < set.size(); ++i) samples << (i ? " " : "") << set[i];
-      samples << '\n';
-    }
-    std::ofstream model(dir / "model.yaml");
-    model << "# Place-recognition model written by train_place_model\nvocabulary_hash: "
-          << vocabulary.hash() << "\nwords: " << vocabulary.size()
-          << "\ntraining_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
+    auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
+    std::ostringstream about;
+    about << "training_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
           << "\nkeyframe_distance_m: " << keyframe_distance_m << "\nbags:\n";
-    for (const auto& bag : bags)
-      model << "  - " << std::filesystem::path(bag).filename().string() << '\n';
-    if (!samples || !model) throw std::runtime_error("cannot write into " + out);
+    for (const auto& bag : bags) {
+      about << "  - " << std::filesystem::path(bag).filename().string() << '\n';
+    }
+    const core::place_recognition::PlaceModel model{std::move(vocabulary), std::move(tree), sets,
+                                                    feature_params};
+    model.save(out, about.str());
     double words_per_keyframe = 0;
     for (const auto& set : sets) words_per_keyframe += set.size();
     std::printf(
         "train_place_model: %zu words (hash %s) from %zu descriptors; %zu keyframes, "
         "%.0f words each on average -> %s\n",
-        vocabulary.size(), vocabulary.hash().c_str(), descriptors.size(), keyframes.size(),
-        words_per_keyframe / std::max<std::size_t>(1, sets.size()), out.c_str());
+        model.vocabulary.size(), model.vocabulary.hash().c_str(), descriptors.size(),
+        keyframes.size(), words_per_keyframe / std::max<std::size_t>(1, sets.size()), out.c_str());
   } catch (const std::exception& e) {
     std::cerr << "train_place_model: " << e.what() << '\n';
     return 1;

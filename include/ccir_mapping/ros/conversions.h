@@ -47,4 +47,9 @@ std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, Clo
 /// accepted.
 void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI>* out);
 
+/// A keyframe's cloud as the Preprocessor publishes it (x y z intensity normal_x normal_y
+/// normal_z, FLOAT32). Returns an error naming what is wrong, leaving `out` empty.
+std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud,
+                                           pcl::PointCloud<pcl::PointXYZINormal>* out);
+
 }  // namespace ccir_mapping::conversions

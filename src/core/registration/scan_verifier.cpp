@@ -49,10 +49,15 @@ ScanVerifier::ScanVerifier(const VerificationParams& params) : params_(params) {
   if (!errors.empty()) throw std::invalid_argument(errors.front());
 }
 
-Verification ScanVerifier::verify(const pcl::PointCloud<pcl::PointXYZINormal>& from_cloud,
-                                  const features::LocalFeatures& from,
-                                  const pcl::PointCloud<pcl::PointXYZINormal>& to_cloud,
-                                  const features::LocalFeatures& to) const {
+PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                                   features::LocalFeatures features) const {
+  return {prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m), std::move(features)};
+}
+
+Verification ScanVerifier::verify(const PreparedScan& from_scan,
+                                  const PreparedScan& to_scan) const {
+  const features::LocalFeatures& from = from_scan.features;
+  const features::LocalFeatures& to = to_scan.features;
   Verification v;
   // Correspondences (i in "to", the source moved onto "from"; j in "from"), one point pair each:
   // the sample-consensus model keys pairs by source index, so a keypoint paired several times
@@ -100,8 +105,8 @@ Verification ScanVerifier::verify(const pcl::PointCloud<pcl::PointXYZINormal>& f
       Eigen::Map<const Eigen::Matrix<float, 4, 4, Eigen::RowMajor>>(coefficients.data());
 
   pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
-  gicp.setInputSource(prepared(to_cloud, params_.gicp_voxel_m, params_.gicp_max_range_m));
-  gicp.setInputTarget(prepared(from_cloud, params_.gicp_voxel_m, params_.gicp_max_range_m));
+  gicp.setInputSource(to_scan.cloud);
+  gicp.setInputTarget(from_scan.cloud);
   gicp.setMaxCorrespondenceDistance(params_.gicp_max_correspondence_m);
   gicp.setMaximumIterations(params_.gicp_iterations);
   pcl::PointCloud<pcl::PointXYZ> aligned;

@@ -47,15 +47,28 @@ struct Verification {
   std::string reason;
 };
 
+/// What verification needs of a keyframe, kept for every mapped place: the features and the
+/// cloud GICP aligns (cropped, down-sampled, points only: ~15x smaller than the keyframe).
+struct PreparedScan {
+  pcl::PointCloud<pcl::PointXYZ>::ConstPtr cloud;
+  features::LocalFeatures features;
+};
+
 class ScanVerifier {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit ScanVerifier(const VerificationParams& params);
 
+  PreparedScan prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                       features::LocalFeatures features) const;
+
+  Verification verify(const PreparedScan& from, const PreparedScan& to) const;
   Verification verify(const pcl::PointCloud<pcl::PointXYZINormal>& from_cloud,
                       const features::LocalFeatures& from,
                       const pcl::PointCloud<pcl::PointXYZINormal>& to_cloud,
-                      const features::LocalFeatures& to) const;
+                      const features::LocalFeatures& to) const {
+    return verify(prepare(from_cloud, from), prepare(to_cloud, to));
+  }
 
  private:
   VerificationParams params_;
