@@ -79,6 +79,7 @@ class MatcherNodelet final : public PipelineNodelet {
                                        std::chrono::steady_clock::now() - start)
                                        .count());
     ++described_;
+    described.odom_pose = *pose;
     return described;
   }
 
@@ -111,6 +112,8 @@ class MatcherNodelet final : public PipelineNodelet {
     count("in keyframes");
     auto described = describe(*keyframe, "own");
     if (!described) return;
+    path_m_ += keyframe->travelled_m;
+    described->path_m = path_m_;
     auto features = boost::make_shared<KeyframeFeatures>();
     features->header = keyframe->header;
     features->robot = keyframe->robot;
@@ -178,6 +181,7 @@ class MatcherNodelet final : public PipelineNodelet {
 
   ros_params::MatcherSettings settings_;
   std::unique_ptr<pr::PlaceMatcher> matcher_;
+  double path_m_ = 0.0;  // odometry path length of the own keyframes so far
   // For diagnostics, which run on another thread.
   std::atomic<std::size_t> places_{0};
   std::atomic<std::size_t> described_{0};

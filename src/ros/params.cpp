@@ -99,6 +99,8 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("min_correspondences", p.min_correspondences);
   reader.read("loop_exclusion_s", p.loop_exclusion_s);
   reader.read("max_candidates", p.max_candidates);
+  reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
+  reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);
   reader.read("min_inliers", p.min_inliers);
   reader.read("max_fitness_m2", p.max_fitness_m2);
   reader.addErrors(p.validate());

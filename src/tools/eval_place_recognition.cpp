@@ -65,6 +65,8 @@ std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& w
     k.odom_covariance.diagonal().tail<3>().setConstant(odom_noise_per_m.y() * odom_noise_per_m.y() *
                                                        path_m);
     k.described = matcher.describe(keyframes.size(), b.stamp, *b.cloud, std::move(b.features));
+    k.described.odom_pose = b.odom_pose;
+    k.described.path_m = path_m;
     keyframes.push_back(std::move(k));
   });
   return keyframes;

@@ -1,6 +1,7 @@
 #include "ccir_mapping/core/place_recognition/place_matcher.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -128,10 +129,34 @@ std::vector<MatchCandidate> PlaceMatcher::match(const DescribedKeyframe& query,
   return candidates;
 }
 
+void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate& c) const {
+  const DescribedKeyframe& place = places_[place_of_.at(c.keyframe)];
+  if (!c.verification.accepted || !query.odom_pose || !place.odom_pose ||
+      params_.own_loop_gate_m_per_m <= 0.0 || params_.own_loop_gate_rad_per_m <= 0.0) {
+    return;
+  }
+  const Pose3 odometry = place.odom_pose->inverse() * *query.odom_pose;
+  const Pose3 disagreement = odometry.inverse() * c.verification.relative;
+  const double path_m = std::abs(query.path_m - place.path_m);
+  const double shift_m = disagreement.translation().norm();
+  const double turn_rad = Eigen::AngleAxisd(disagreement.linear()).angle();
+  const double max_shift_m = 1.0 + params_.own_loop_gate_m_per_m * path_m;
+  const double max_turn_rad = 0.2 + params_.own_loop_gate_rad_per_m * path_m;
+  if (shift_m > max_shift_m || turn_rad > max_turn_rad) {
+    c.verification.accepted = false;
+    c.verification.reason = "odometry disagrees by " + std::to_string(shift_m) + " m, " +
+                            std::to_string(turn_rad) + " rad after " + std::to_string(path_m) +
+                            " m (gate " + std::to_string(max_shift_m) + " m, " +
+                            std::to_string(max_turn_rad) + " rad)";
+  }
+}
+
 std::vector<MatchCandidate> PlaceMatcher::addOwn(DescribedKeyframe keyframe) {
   const Stamp newest = keyframe.stamp - fromSeconds(params_.loop_exclusion_s);
   auto candidates = match(keyframe, newest);
+  for (auto& c : candidates) gateByOdometry(keyframe, c);
   const auto index = static_cast<std::uint32_t>(places_.size());
+  place_of_[keyframe.id] = index;
   for (const std::uint32_t w : keyframe.words) {
     if (w < postings_.size()) postings_[w].push_back(index);
   }

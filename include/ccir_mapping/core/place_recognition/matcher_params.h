@@ -26,6 +26,10 @@ struct MatcherParams {
   /// Best-ranked places of each query that are geometrically verified. Verification is cheap
   /// (~6 ms on a simulated keyframe) and in an aliased mine the true place is rarely first.
   int max_candidates = 20;
+  /// Own loop closures must agree with odometry within 1 m + this x the path between the two
+  /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
+  double own_loop_gate_m_per_m = 0.1;
+  double own_loop_gate_rad_per_m = 0.01;
   /// Verification acceptance: keypoints agreeing on the RANSAC transform, and GICP fitness.
   int min_inliers = 8;
   double max_fitness_m2 = 0.1;

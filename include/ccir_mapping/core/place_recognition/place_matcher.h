@@ -3,7 +3,9 @@
 // keyframe against all of them; the best-ranked candidates are verified geometrically.
 #pragma once
 
+#include <map>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -24,6 +26,10 @@ namespace ccir_mapping::core::place_recognition {
 struct DescribedKeyframe {
   KeyframeId id = 0;
   Stamp stamp = 0;
+  /// Own keyframes: the sensor pose from odometry and the odometry path length up to it, which
+  /// bound how far a loop closure may move it (teammates' keyframes leave them unset).
+  std::optional<Pose3> odom_pose;
+  double path_m = 0.0;
   WordSet words;
   registration::PreparedScan scan;
 };
@@ -64,7 +70,9 @@ class PlaceMatcher {
   std::vector<std::pair<KeyframeId, int>> correspondences(const WordSet& words) const;
 
   /// Matches an own keyframe against own places at least loop_exclusion_s older, then adds it
-  /// as a place. Returns the verified candidates, best-ranked first.
+  /// as a place. Returns the verified candidates, best-ranked first; with odometry on both
+  /// keyframes, a verified closure that moves the keyframe farther from where odometry puts it
+  /// than the drift gate allows is not accepted (perceptual aliasing).
   std::vector<MatchCandidate> addOwn(DescribedKeyframe keyframe);
 
   /// Matches a teammate's keyframe against every place; it does not become a place.
@@ -72,6 +80,7 @@ class PlaceMatcher {
 
  private:
   std::vector<MatchCandidate> match(const DescribedKeyframe& query, Stamp newest) const;
+  void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
   std::vector<int> sharedWords(const WordSet& words) const;
 
   MatcherParams params_;
@@ -82,6 +91,7 @@ class PlaceMatcher {
   FabMap2 fabmap_;
   HistogramMatcher histogram_;
   std::vector<DescribedKeyframe> places_;
+  std::map<KeyframeId, std::size_t> place_of_;        // keyframe id -> index in places_
   std::vector<std::vector<std::uint32_t>> postings_;  // word -> places holding it
 };
 

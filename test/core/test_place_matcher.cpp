@@ -1,0 +1,218 @@
+// The Matcher's core: model files (round trip, errors that name the file), c_k correspondences,
+// the temporal exclusion window, teammate queries that never become places, both methods.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "ccir_mapping/core/place_recognition/place_matcher.h"
+
+namespace ccir_mapping::core::place_recognition {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kWords = 40;
+
+/// Random unit-sum descriptors around `kWords` centres.
+std::vector<features::SpinImage> blobDescriptors(int per_word, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0F, 1.0F);
+  std::vector<features::SpinImage> centres(kWords);
+  for (auto& c : centres) {
+    for (float& v : c) v = u(rng) < 0.1F ? 1.0F : 0.0F;
+  }
+  std::vector<features::SpinImage> descriptors;
+  for (int i = 0; i < per_word; ++i) {
+    for (const auto& c : centres) {
+      features::SpinImage d = c;
+      float sum = 0.0F;
+      for (float& v : d) sum += (v += 0.02F * u(rng));
+      for (float& v : d) v /= sum;
+      descriptors.push_back(d);
+    }
+  }
+  return descriptors;
+}
+
+std::shared_ptr<const PlaceModel> smallModel() {
+  const auto training = blobDescriptors(20, 1);
+  Vocabulary vocabulary = Vocabulary::train(training, kWords);
+  std::mt19937 rng(2);
+  std::vector<WordSet> sets;
+  for (int k = 0; k < 60; ++k) {
+    std::vector<features::SpinImage> keyframe;
+    for (int i = 0; i < 12; ++i) keyframe.push_back(training[rng() % training.size()]);
+    sets.push_back(vocabulary.quantize(keyframe));
+  }
+  ChowLiuTree tree = ChowLiuTree::learn(sets, vocabulary.size());
+  return std::make_shared<const PlaceModel>(
+      PlaceModel{std::move(vocabulary), std::move(tree), sets, features::FeatureParams{}});
+}
+
+/// A place: a flat random cloud and 40 keypoints at random positions with the given descriptors.
+struct Scene {
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  features::LocalFeatures features;
+};
+
+Scene scene(const std::vector<features::SpinImage>& descriptors, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-10.0F, 10.0F);
+  Scene s;
+  for (int i = 0; i < 3000; ++i) {
+    pcl::PointXYZINormal p;
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = 0.2F * u(rng);
+    p.normal_z = 1.0F;
+    s.cloud.push_back(p);
+  }
+  for (const auto& d : descriptors) {
+    s.features.keypoints.emplace_back(u(rng), u(rng), u(rng));
+    s.features.descriptors.push_back(d);
+  }
+  return s;
+}
+
+class PlaceMatcherTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model_ = smallModel();
+    const auto pool = blobDescriptors(1, 7);
+    for (unsigned k = 0; k < 3; ++k) {
+      // Distinct places: different halves of the words, different geometry.
+      std::vector<features::SpinImage> descriptors;
+      for (std::size_t i = k * 13; i < k * 13 + 20 && i < pool.size(); ++i) {
+        descriptors.push_back(pool[i]);
+      }
+      scenes_.push_back(scene(descriptors, 10 + k));
+    }
+  }
+
+  DescribedKeyframe keyframe(const PlaceMatcher& matcher, KeyframeId id, double stamp_s,
+                             int scene) const {
+    const Scene& s = scenes_[static_cast<std::size_t>(scene)];
+    return matcher.describe(id, fromSeconds(stamp_s), s.cloud, s.features);
+  }
+
+  std::shared_ptr<const PlaceModel> model_;
+  std::vector<Scene> scenes_;
+};
+
+TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
+  MatcherParams params;
+  params.loop_exclusion_s = 30.0;
+  PlaceMatcher matcher(params, model_);
+  EXPECT_TRUE(matcher.addOwn(keyframe(matcher, 0, 0.0, 0)).empty());
+  EXPECT_TRUE(matcher.addOwn(keyframe(matcher, 1, 5.0, 1)).empty());
+  // The first place again, 10 s later: too recent to be a loop.
+  EXPECT_TRUE(matcher.addOwn(keyframe(matcher, 2, 10.0, 0)).empty());
+  // And 40 s later: keyframes 0 and 2 qualify and verify (same geometry); 1 is another place.
+  const auto candidates = matcher.addOwn(keyframe(matcher, 3, 40.0, 0));
+  const MatchCandidate* best = bestAccepted(candidates);
+  ASSERT_NE(best, nullptr);
+  EXPECT_TRUE(best->keyframe == 0 || best->keyframe == 2) << best->keyframe;
+  EXPECT_LT(best->verification.relative.translation().norm(), 0.05);
+  EXPECT_GE(best->correspondences, params.min_correspondences);
+  for (const auto& c : candidates) {
+    if (c.keyframe == 1) EXPECT_FALSE(c.verification.accepted);
+  }
+  EXPECT_EQ(matcher.places(), 4U);
+}
+
+TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
+  for (const MatchMethod method : {MatchMethod::kFabmap, MatchMethod::kHistogram}) {
+    SCOPED_TRACE(toString(method));
+    MatcherParams params;
+    params.method = method;
+    PlaceMatcher matcher(params, model_);
+    matcher.addOwn(keyframe(matcher, 0, 0.0, 0));
+    matcher.addOwn(keyframe(matcher, 1, 1.0, 1));
+    // A teammate at the same instant: no exclusion window for teammates.
+    const auto candidates = matcher.matchTeammate(keyframe(matcher, 7, 1.0, 1));
+    const MatchCandidate* best = bestAccepted(candidates);
+    ASSERT_NE(best, nullptr);
+    EXPECT_EQ(best->keyframe, 1U);
+    EXPECT_EQ(matcher.places(), 2U);
+    EXPECT_TRUE(bestAccepted(matcher.matchTeammate(keyframe(matcher, 8, 1.0, 2))) == nullptr);
+  }
+}
+
+TEST_F(PlaceMatcherTest, CorrespondencesCountSharedWordsAboveTheMinimum) {
+  MatcherParams params;
+  params.min_correspondences = 3;
+  PlaceMatcher matcher(params, model_);
+  std::vector<DescribedKeyframe> places;
+  for (int k = 0; k < 3; ++k) {
+    places.push_back(keyframe(matcher, static_cast<KeyframeId>(k), k, k));
+    matcher.addOwn(places.back());
+  }
+  const WordSet& query = places[0].words;
+  const auto result = matcher.correspondences(query);
+  ASSERT_FALSE(result.empty());
+  EXPECT_EQ(result.front().first, 0U);
+  EXPECT_EQ(result.front().second, static_cast<int>(query.size()));
+  for (std::size_t i = 0; i < result.size(); ++i) {
+    const WordSet& words = places[result[i].first].words;
+    WordSet shared;
+    std::set_intersection(query.begin(), query.end(), words.begin(), words.end(),
+                          std::back_inserter(shared));
+    EXPECT_EQ(result[i].second, static_cast<int>(shared.size()));
+    EXPECT_GE(result[i].second, 3);
+    if (i > 0) EXPECT_LE(result[i].second, result[i - 1].second);
+  }
+  EXPECT_TRUE(matcher.correspondences({}).empty());
+}
+
+TEST_F(PlaceMatcherTest, InvalidParametersAndMissingModelAreNamed) {
+  MatcherParams params;
+  params.max_candidates = 0;
+  try {
+    PlaceMatcher matcher(params, model_);
+    FAIL() << "accepted max_candidates = 0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("max_candidates"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(PlaceMatcher(MatcherParams{}, nullptr), std::invalid_argument);
+}
+
+TEST(PlaceModel, RoundTripsAndNamesTheBrokenFile) {
+  const auto model = smallModel();
+  const fs::path dir = fs::temp_directory_path() / "ccir_place_model_test";
+  fs::remove_all(dir);
+  PlaceModel copy{Vocabulary(model->vocabulary.words()), model->tree, model->samples,
+                  model->features};
+  copy.features.drop_horizontal = preprocess::HorizontalFilter::kGround;
+  copy.features.iss_non_max_radius_m = 1.25;
+  copy.save(dir.string(), "note: test\n");
+  const auto loaded = PlaceModel::load(dir.string());
+  EXPECT_EQ(loaded->vocabulary.hash(), model->vocabulary.hash());
+  EXPECT_EQ(loaded->samples, model->samples);
+  EXPECT_EQ(loaded->tree.size(), model->tree.size());
+  EXPECT_EQ(loaded->features.drop_horizontal, preprocess::HorizontalFilter::kGround);
+  EXPECT_DOUBLE_EQ(loaded->features.iss_non_max_radius_m, 1.25);
+
+  auto expectError = [&](const std::string& file) {
+    try {
+      PlaceModel::load(dir.string());
+      ADD_FAILURE() << "loaded a model with a broken " << file;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    }
+  };
+  std::ofstream(dir / "samples.txt")
+      << "# ccir_mapping new-place samples 1 0000000000000000\n1 2\n";
+  expectError("samples.txt");
+  copy.save(dir.string(), "");
+  std::ofstream(dir / "model.yaml") << "vocabulary_hash: " << model->vocabulary.hash() << "\n";
+  expectError("model.yaml");
+  fs::remove(dir / "chow_liu_tree.txt");
+  expectError("chow_liu_tree.txt");
+  fs::remove_all(dir);
+  expectError(dir.string());
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::place_recognition
