@@ -30,8 +30,10 @@ struct MatcherParams {
   /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
   double own_loop_gate_m_per_m = 0.1;
   double own_loop_gate_rad_per_m = 0.01;
-  /// Verification acceptance: keypoints agreeing on the RANSAC transform, and GICP fitness.
-  int min_inliers = 8;
+  /// Verification acceptance: keypoints agreeing on the RANSAC transform, and GICP fitness. Six
+  /// lets through aliased places too; inter-robot closures reach the map only through the
+  /// Backend's team-frame EM and own ones through the odometry gate, which sort those out.
+  int min_inliers = 6;
   double max_fitness_m2 = 0.1;
 
   std::vector<std::string> validate() const;
