@@ -103,6 +103,7 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);
   reader.read("min_inliers", p.min_inliers);
   reader.read("max_fitness_m2", p.max_fitness_m2);
+  reader.read("min_overlap", p.min_overlap);
   reader.addErrors(p.validate());
 }
 

@@ -26,6 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Keyframe {
+  core::Pose3 world_pose;  // true
   Eigen::Vector3d world_position;
   core::Pose3 odom_pose;
   /// Marginal covariance of odom_pose, [x y z, rotation vector], as a random walk along the path.
@@ -55,7 +56,8 @@ std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& w
   double path_m = 0.0;
   forEachBagKeyframe(bag_file.string(), options, extractor, [&](BagKeyframe&& b) {
     Keyframe k;
-    k.world_position = (world_from_odom * *b.true_pose).translation();
+    k.world_pose = world_from_odom * *b.true_pose;
+    k.world_position = k.world_pose.translation();
     k.odom_pose = b.odom_pose;
     if (!keyframes.empty()) {
       path_m += (b.odom_pose.translation() - keyframes.back().odom_pose.translation()).norm();
@@ -75,6 +77,9 @@ std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& w
 
 struct Counts {
   int tp = 0, fp = 0;
+  /// Of the accepted closures, those whose relative pose is within 0.5 m and 3 degrees of the
+  /// truth, whatever the distance between the keyframes.
+  int correct_pose = 0;
   void add(bool truth) { (truth ? tp : fp)++; }
   double precision() const { return tp + fp ? double(tp) / (tp + fp) : 1.0; }
 };
@@ -103,6 +108,7 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   }
   std::vector<core::alignment::AlignmentCandidate> closures;
   std::vector<bool> closure_true;
+  std::vector<bool> closure_correct;
   for (const Keyframe& q : queries) {
     const auto candidates = matcher.matchTeammate(q.described);
     for (const auto& c : candidates) result.candidates.add(near(map[c.keyframe], q));
@@ -111,6 +117,11 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
     if (!best) continue;
     const Keyframe& place = map[best->keyframe];
     result.verified.add(near(place, q));
+    const core::Pose3 error =
+        (place.world_pose.inverse() * q.world_pose).inverse() * best->verification.relative;
+    const bool correct = error.translation().norm() < 0.5 &&
+                         Eigen::AngleAxisd(error.linear()).angle() < 3 * M_PI / 180;
+    result.verified.correct_pose += correct;
     core::alignment::AlignmentCandidate closure;
     closure.pose_a = place.odom_pose;
     closure.pose_b = q.odom_pose;
@@ -120,11 +131,15 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
     closure.covariance_b = q.odom_covariance;
     closures.push_back(closure);
     closure_true.push_back(near(place, q));
+    closure_correct.push_back(correct);
   }
   const auto aligned =
       core::alignment::estimateFrameTransform(closures, core::alignment::AlignmentParams{});
   for (std::size_t k = 0; aligned.found && k < closures.size(); ++k) {
-    if (aligned.inliers[k]) result.team_frame.add(closure_true[k]);
+    if (aligned.inliers[k]) {
+      result.team_frame.add(closure_true[k]);
+      result.team_frame.correct_pose += closure_correct[k];
+    }
   }
   return result;
 }
@@ -218,8 +233,10 @@ int main(int argc, char** argv) {
       const MethodResult r = evaluate(method, params, model, map, queries, true_distance_m);
       auto stage = [&](const char* name, const Counts& c, const char* end) {
         std::printf(
-            "      \"%s\": {\"tp\": %d, \"fp\": %d, \"precision\": %.3f, \"recall\": %.3f}%s\n",
-            name, c.tp, c.fp, c.precision(), overlapping ? double(c.tp) / overlapping : 0.0, end);
+            "      \"%s\": {\"tp\": %d, \"fp\": %d, \"precision\": %.3f, \"recall\": %.3f, "
+            "\"correct_pose\": %d}%s\n",
+            name, c.tp, c.fp, c.precision(), overlapping ? double(c.tp) / overlapping : 0.0,
+            c.correct_pose, end);
       };
       std::printf(
           "    \"%s\": {\n      \"best_ranked_tp\": %d, \"best_ranked_fp\": %d, "

@@ -23,6 +23,7 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inRange("own_loop_gate_rad_per_m", own_loop_gate_rad_per_m, 0.0, 10.0);
   check.inRange("min_inliers", min_inliers, 3, 100000);
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
+  check.inRange("min_overlap", min_overlap, 0.0, 1.0);
   return check.errors();
 }
 

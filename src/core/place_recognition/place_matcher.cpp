@@ -24,6 +24,7 @@ registration::VerificationParams verificationParams(const MatcherParams& params)
   registration::VerificationParams v;
   v.min_inliers = params.min_inliers;
   v.max_fitness_m2 = params.max_fitness_m2;
+  v.min_overlap = params.min_overlap;
   return v;
 }
 
@@ -38,9 +39,11 @@ HistogramParams histogramParams(const MatcherParams& params) {
 const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates) {
   const MatchCandidate* best = nullptr;
   for (const auto& c : candidates) {
-    if (c.verification.accepted && (!best || c.verification.inliers > best->verification.inliers)) {
-      best = &c;
-    }
+    if (!c.verification.accepted) continue;
+    const auto rank = [](const MatchCandidate& m) {
+      return std::make_pair(m.verification.overlap, m.verification.inliers);
+    };
+    if (!best || rank(c) > rank(*best)) best = &c;
   }
   return best;
 }

@@ -5,6 +5,8 @@
 #include <set>
 #include <stdexcept>
 
+#include <pcl/common/transforms.h>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/registration/gicp.h>
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_registration.h>
@@ -30,6 +32,29 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr prepared(const pcl::PointCloud<pcl::PointXYZ
 
 }  // namespace
 
+double ScanVerifier::wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
+                                 const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
+                                 const Eigen::Matrix4f& from_to) const {
+  if (from_walls->empty()) return 0.0;
+  pcl::PointCloud<pcl::PointXYZ> moved;
+  pcl::transformPointCloud(to_walls, moved, from_to);
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(from_walls);
+  const auto range2 = static_cast<float>(params_.overlap_range_m * params_.overlap_range_m);
+  const auto distance2 =
+      static_cast<float>(params_.overlap_distance_m * params_.overlap_distance_m);
+  int inside = 0;
+  int explained = 0;
+  pcl::Indices index(1);
+  std::vector<float> squared(1);
+  for (const auto& p : moved) {
+    if (p.getVector3fMap().squaredNorm() > range2) continue;
+    ++inside;
+    explained += tree.nearestKSearch(p, 1, index, squared) == 1 && squared[0] <= distance2;
+  }
+  return inside ? static_cast<double>(explained) / inside : 0.0;
+}
+
 std::vector<std::string> VerificationParams::validate() const {
   ParamCheck check;
   check.inRange("match_neighbors", match_neighbors, 1, 100);
@@ -41,6 +66,10 @@ std::vector<std::string> VerificationParams::validate() const {
   check.inHalfOpenRange("gicp_max_correspondence_m", gicp_max_correspondence_m, 0.0, 100.0);
   check.inRange("gicp_iterations", gicp_iterations, 1, 10000);
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
+  check.inRange("min_overlap", min_overlap, 0.0, 1.0);
+  check.inHalfOpenRange("overlap_distance_m", overlap_distance_m, 0.0, 10.0);
+  check.inHalfOpenRange("overlap_range_m", overlap_range_m, 0.0, 300.0);
+  check.inRange("wall_normal_z", wall_normal_z, 0.0, 1.0);
   return check.errors();
 }
 
@@ -51,7 +80,12 @@ ScanVerifier::ScanVerifier(const VerificationParams& params) : params_(params) {
 
 PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                    features::LocalFeatures features) const {
-  return {prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m), std::move(features)};
+  pcl::PointCloud<pcl::PointXYZINormal> walls;
+  for (const auto& p : cloud) {
+    if (std::abs(p.normal_z) < params_.wall_normal_z) walls.push_back(p);
+  }
+  return {prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m),
+          prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m), std::move(features)};
 }
 
 Verification ScanVerifier::verify(const PreparedScan& from_scan,
@@ -116,12 +150,18 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
     return v;
   }
   v.fitness_m2 = gicp.getFitnessScore(1.0);
+  v.overlap = wallOverlap(*to_scan.walls, from_scan.walls, gicp.getFinalTransformation());
   v.relative.matrix() = gicp.getFinalTransformation().cast<double>();
   v.covariance = alignment::Matrix6::Identity() * std::max(0.01, v.fitness_m2);
   v.covariance.bottomRightCorner<3, 3>() *= 0.1;
   if (!(v.fitness_m2 <= params_.max_fitness_m2)) {
     v.reason = "GICP fitness " + std::to_string(v.fitness_m2) + " m^2 above " +
                std::to_string(params_.max_fitness_m2);
+    return v;
+  }
+  if (!(v.overlap >= params_.min_overlap)) {
+    v.reason = "wall overlap " + std::to_string(v.overlap) + " below " +
+               std::to_string(params_.min_overlap);
     return v;
   }
   v.accepted = true;

@@ -45,7 +45,7 @@ struct MatchCandidate {
   registration::Verification verification;
 };
 
-/// The accepted candidate with most inliers, or nullptr.
+/// The accepted candidate with the largest wall overlap (then most inliers), or nullptr.
 const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates);
 
 class PlaceMatcher {

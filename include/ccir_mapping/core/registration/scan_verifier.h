@@ -29,6 +29,15 @@ struct VerificationParams {
   int gicp_iterations = 50;
   /// Accept when the mean squared distance of matched points (within 1 m) is at most this.
   double max_fitness_m2 = 0.1;
+  /// ... and when, after alignment, at least this share of the "to" scan's wall points within
+  /// overlap_range_m of the "from" sensor lie within overlap_distance_m of the "from" scan's
+  /// walls. In a repetitive mine a place one pillar away also fits well locally, but its far
+  /// walls, pillar sizes and rubble do not.
+  double min_overlap = 0.9;
+  double overlap_distance_m = 0.3;
+  double overlap_range_m = 30.0;
+  /// Points whose unit normal has |z| below this (sensor frame, level sensor) are walls.
+  double wall_normal_z = 0.5;
 
   std::vector<std::string> validate() const;
 };
@@ -44,6 +53,8 @@ struct Verification {
   int matches = 0;
   int inliers = 0;
   double fitness_m2 = 0.0;
+  /// The wall overlap (see VerificationParams::min_overlap).
+  double overlap = 0.0;
   std::string reason;
 };
 
@@ -51,6 +62,9 @@ struct Verification {
 /// cloud GICP aligns (cropped, down-sampled, points only: ~15x smaller than the keyframe).
 struct PreparedScan {
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr cloud;
+  /// Points on non-horizontal surfaces (walls, pillars, rubble), for the overlap test: floor
+  /// and ceiling overlap wherever two scans are aligned, so they would hide a wrong alignment.
+  pcl::PointCloud<pcl::PointXYZ>::ConstPtr walls;
   features::LocalFeatures features;
 };
 
@@ -71,6 +85,12 @@ class ScanVerifier {
   }
 
  private:
+  /// Share of `to_walls`, moved by `from_to`, within overlap_range_m of the origin that lie
+  /// within overlap_distance_m of `from_walls`.
+  double wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
+                     const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
+                     const Eigen::Matrix4f& from_to) const;
+
   VerificationParams params_;
 };
 
