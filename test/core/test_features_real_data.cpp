@@ -96,7 +96,7 @@ TEST(RealScans, RevisitVerifiesAndOtherPlaceIsRejected) {
   const Scan second = load("16line_2.pcd");
   const Scan other = load("16line_other.pcd");
   // An outdoor scene changes more between visits than a mine's rock walls: the wall overlap of
-  // this true revisit is 0.85, below the mine default, so the outdoor setting is used.
+  // this true revisit is 0.83, below the mine default, so the outdoor setting is used.
   VerificationParams outdoor;
   outdoor.min_overlap = 0.8;
   const ScanVerifier verifier{outdoor};

@@ -5,6 +5,7 @@
 // 90 or 180 degrees); robot_a's Backend must still find the true transform to robot_b's frame.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -13,6 +14,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
+#include <std_srvs/SetBool.h>
 #include <yaml-cpp/yaml.h>
 #include <Eigen/Geometry>
 
@@ -139,6 +141,18 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
   foreign->words = {1, 2, 3, 4, 5, 6, 7, 8};
   foreign_pub.publish(foreign);
 
+  // Start the paused replay once every recorded topic is connected: no keyframe is missed.
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return std::all_of(subs.begin(), subs.end(),
+                           [](const ros::Subscriber& sub) { return sub.getNumPublishers() > 0; });
+      },
+      60.0))
+      << "the pipelines did not come up";
+  std_srvs::SetBool resume;
+  resume.request.data = false;
+  ASSERT_TRUE(ros::service::waitForService("/player/pause_playback", ros::Duration(60.0)));
+  ASSERT_TRUE(ros::service::call("/player/pause_playback", resume));
   ASSERT_TRUE(waitFor([&] { return now >= end; }, 120.0)) << "the mission did not replay";
   // Done when every keyframe has its word set and every word set its correspondences.
   auto settled = [&] {

@@ -150,7 +150,10 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
     return v;
   }
   v.fitness_m2 = gicp.getFitnessScore(1.0);
-  v.overlap = wallOverlap(*to_scan.walls, from_scan.walls, gicp.getFinalTransformation());
+  // Both ways: a scan that sees the mine's outer wall where the other sees a drift fails one.
+  const Eigen::Matrix4f from_to = gicp.getFinalTransformation();
+  v.overlap = std::min(wallOverlap(*to_scan.walls, from_scan.walls, from_to),
+                       wallOverlap(*from_scan.walls, to_scan.walls, from_to.inverse()));
   v.relative.matrix() = gicp.getFinalTransformation().cast<double>();
   v.covariance = alignment::Matrix6::Identity() * std::max(0.01, v.fitness_m2);
   v.covariance.bottomRightCorner<3, 3>() *= 0.1;

@@ -35,7 +35,7 @@ struct MatcherParams {
   /// Backend's team-frame EM and own ones through the odometry gate, which sort those out.
   int min_inliers = 6;
   double max_fitness_m2 = 0.1;
-  /// ... and the share of the query's wall points the place explains (scan_verifier.h).
+  /// ... and the share of wall points each scan explains of the other (scan_verifier.h).
   double min_overlap = 0.9;
 
   std::vector<std::string> validate() const;

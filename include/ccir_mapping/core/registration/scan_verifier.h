@@ -29,10 +29,10 @@ struct VerificationParams {
   int gicp_iterations = 50;
   /// Accept when the mean squared distance of matched points (within 1 m) is at most this.
   double max_fitness_m2 = 0.1;
-  /// ... and when, after alignment, at least this share of the "to" scan's wall points within
-  /// overlap_range_m of the "from" sensor lie within overlap_distance_m of the "from" scan's
-  /// walls. In a repetitive mine a place one pillar away also fits well locally, but its far
-  /// walls, pillar sizes and rubble do not.
+  /// ... and when, after alignment, at least this share of each scan's wall points within
+  /// overlap_range_m of the other's sensor lie within overlap_distance_m of the other's walls.
+  /// In a repetitive mine a place one pillar away also fits well locally, but its far walls,
+  /// pillar sizes and rubble do not.
   double min_overlap = 0.9;
   double overlap_distance_m = 0.3;
   double overlap_range_m = 30.0;
@@ -53,7 +53,7 @@ struct Verification {
   int matches = 0;
   int inliers = 0;
   double fitness_m2 = 0.0;
-  /// The wall overlap (see VerificationParams::min_overlap).
+  /// The wall overlap, the smaller of the two directions (VerificationParams::min_overlap).
   double overlap = 0.0;
   std::string reason;
 };
