@@ -18,6 +18,7 @@ def main():
     for plan in mission["robots"]:
         report = json.load(open("%s/%s/report.json" % (args.out, plan["name"])))
         flow = report["nodelets"].get("preprocessor", {}).get("flow", {})
+        matcher = report["nodelets"].get("matcher", {}).get("flow", {})
         robots.append({
             "name": plan["name"], "kind": plan["kind"], "distance_m": plan["distance_m"],
             "shared_fraction": plan["shared_fraction"],
@@ -27,6 +28,8 @@ def main():
             "scans_dropped": flow.get("dropped scans messages", 0),
             "keyframes": report["keyframes"], "keyframe_spacing_m": report["keyframe_spacing_m"],
             "features_to_outbox": report["features_to_outbox"],
+            "word_sets": matcher.get("out features messages", 0),
+            "own_loop_closures": matcher.get("out loop_closures (own) messages", 0),
             "scans_to_outbox": len(report["scans_to_outbox"]), "pipeline": report["nodelets"]})
     world = mission["world"]
     result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
@@ -36,14 +39,16 @@ def main():
     lines = ["%s %.0f x %.0f m, %d robots, %.0f s, seed %d" % (
         world["kind"], world["size_x_m"], world["size_y_m"], len(robots), result["duration_s"],
         result["seed"])]
-    lines.append("  %-9s %7s %6s %6s %9s %12s %9s %7s" % (
-        "robot", "path m", "shared", "scans", "keyframes", "spacing m", "features", "scans"))
-    lines.append("  %-9s %7s %6s %6s %9s %12s %9s %7s" % (
-        "", "", "", "in", "", "mean", "outbox", "outbox"))
+    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s" % (
+        "robot", "path m", "shared", "scans", "keyframes", "spacing m", "word", "own", "features",
+        "scans"))
+    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s" % (
+        "", "", "", "in", "", "mean", "sets", "loops", "outbox", "outbox"))
     for r in robots:
-        lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %9d %7d" % (
+        lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %6d %6d %9d %7d" % (
             r["name"], r["distance_m"], 100 * r["shared_fraction"], r["scans_in"], r["keyframes"],
-            r["keyframe_spacing_m"]["mean"], r["features_to_outbox"], r["scans_to_outbox"]))
+            r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
+            r["features_to_outbox"], r["scans_to_outbox"]))
     total_scans = sum(r["scans_in"] for r in robots)
     total_keyframes = sum(r["keyframes"] for r in robots)
     with open(args.out + "/summary.txt", "w") as f:
