@@ -104,6 +104,7 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("min_inliers", p.min_inliers);
   reader.read("max_fitness_m2", p.max_fitness_m2);
   reader.read("min_overlap", p.min_overlap);
+  reader.read("overlap_distance_m", p.overlap_distance_m);
   reader.addErrors(p.validate());
 }
 

@@ -170,6 +170,11 @@ int main(int argc, char** argv) {
       "c_k,min: shared words (FAB-MAP) or votes (histogram) a candidate needs")(
       "min-inliers", po::value<int>(&params.min_inliers)->default_value(params.min_inliers),
       "verification: keypoints agreeing on the transform")(
+      "min-overlap", po::value<double>(&params.min_overlap)->default_value(params.min_overlap),
+      "verification: wall overlap")(
+      "overlap-distance-m",
+      po::value<double>(&params.overlap_distance_m)->default_value(params.overlap_distance_m),
+      "verification: wall points closer than this overlap [m]")(
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),
       "robot A's own keyframes younger than this are not matched [s]")(

@@ -24,6 +24,7 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inRange("min_inliers", min_inliers, 3, 100000);
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
   check.inRange("min_overlap", min_overlap, 0.0, 1.0);
+  check.inHalfOpenRange("overlap_distance_m", overlap_distance_m, 0.0, 10.0);
   return check.errors();
 }
 

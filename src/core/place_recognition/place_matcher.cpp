@@ -24,6 +24,7 @@ registration::VerificationParams verificationParams(const MatcherParams& params)
   v.min_inliers = params.min_inliers;
   v.max_fitness_m2 = params.max_fitness_m2;
   v.min_overlap = params.min_overlap;
+  v.overlap_distance_m = params.overlap_distance_m;
   return v;
 }
 

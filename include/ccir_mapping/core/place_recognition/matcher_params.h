@@ -35,8 +35,11 @@ struct MatcherParams {
   /// Backend's team-frame EM and own ones through the odometry gate, which sort those out.
   int min_inliers = 6;
   double max_fitness_m2 = 0.1;
-  /// ... and the share of wall points each scan explains of the other (scan_verifier.h).
-  double min_overlap = 0.9;
+  /// ... and the share of wall points each scan explains of the other within
+  /// overlap_distance_m (scan_verifier.h). Tight: a place one pillar away differs by the
+  /// pillars' size and angle jitter (decimetres), a true revisit only by sensor noise.
+  double min_overlap = 0.6;
+  double overlap_distance_m = 0.1;
 
   std::vector<std::string> validate() const;
 };

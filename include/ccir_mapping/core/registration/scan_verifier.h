@@ -33,8 +33,8 @@ struct VerificationParams {
   /// overlap_range_m of the other's sensor lie within overlap_distance_m of the other's walls.
   /// In a repetitive mine a place one pillar away also fits well locally, but its far walls,
   /// pillar sizes and rubble do not.
-  double min_overlap = 0.9;
-  double overlap_distance_m = 0.3;
+  double min_overlap = 0.6;
+  double overlap_distance_m = 0.1;
   double overlap_range_m = 30.0;
   /// Points whose unit normal has |z| below this (sensor frame, level sensor) are walls.
   double wall_normal_z = 0.5;
