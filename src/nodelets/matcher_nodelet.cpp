@@ -34,7 +34,8 @@ class MatcherNodelet final : public PipelineNodelet {
       matcher_ =
           std::make_unique<pr::PlaceMatcher>(settings_.core, pr::PlaceModel::load(model_dir));
     } catch (const std::exception& e) {
-      NODELET_FATAL("~model_dir: cannot load the place-recognition model: %s", e.what());
+      failConfiguration(std::string("model_dir: cannot load the place-recognition model: ") +
+                        e.what());
       return;
     }
     NODELET_INFO("place recognition: %s, model %s (%zu words, vocabulary %s)",

@@ -5,7 +5,7 @@
 namespace ccir_mapping {
 
 PipelineNodelet::~PipelineNodelet() {
-  std::lock_guard<std::mutex> lock(flow_mutex_);
+  std::lock_guard<std::mutex> lock(status_mutex_);
   if (flows_.empty()) return;
   std::ostringstream summary;
   for (const auto& [name, flow] : flows_) summary << " " << name << "=" << flow.messages;
@@ -41,24 +41,30 @@ bool PipelineNodelet::reportSettings(const ros_params::ParamReader& reader,
   return config_errors_.empty();
 }
 
+void PipelineNodelet::failConfiguration(const std::string& error) {
+  NODELET_FATAL("%s; this nodelet stays inert", error.c_str());
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  config_errors_.push_back(error);
+}
+
 void PipelineNodelet::count(const std::string& flow, std::uint64_t bytes) {
-  std::lock_guard<std::mutex> lock(flow_mutex_);
+  std::lock_guard<std::mutex> lock(status_mutex_);
   Flow& f = flows_[flow];
   ++f.messages;
   f.bytes += bytes;
 }
 
 void PipelineNodelet::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  if (!config_errors_.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "inert: invalid parameters");
-    for (std::size_t i = 0; i < config_errors_.size(); ++i) {
-      status.add("error " + std::to_string(i), config_errors_[i]);
-    }
-    return;
-  }
-  status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
   {
-    std::lock_guard<std::mutex> lock(flow_mutex_);
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    if (!config_errors_.empty()) {
+      status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "inert: invalid parameters");
+      for (std::size_t i = 0; i < config_errors_.size(); ++i) {
+        status.add("error " + std::to_string(i), config_errors_[i]);
+      }
+      return;
+    }
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
     for (const auto& [name, flow] : flows_) {
       status.add(name + " messages", flow.messages);
       if (flow.bytes) status.add(name + " bytes", flow.bytes);

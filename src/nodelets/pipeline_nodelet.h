@@ -39,6 +39,10 @@ class PipelineNodelet : public nodelet::Nodelet {
     if (before != after) changes << " " << name << " " << before << " -> " << after;
   }
 
+  /// A configuration error found after loadSettings (e.g. a file a parameter names): logs it as
+  /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert.
+  void failConfiguration(const std::string& error);
+
   /// Counts messages (and bytes) that passed through a named input or output.
   void count(const std::string& flow, std::uint64_t bytes = 0);
   /// Adds a status line to the diagnostics (called from the diagnostics thread).
@@ -53,7 +57,7 @@ class PipelineNodelet : public nodelet::Nodelet {
     std::uint64_t messages = 0;
     std::uint64_t bytes = 0;
   };
-  std::mutex flow_mutex_;
+  std::mutex status_mutex_;
   std::map<std::string, Flow> flows_;
   std::vector<std::string> config_errors_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

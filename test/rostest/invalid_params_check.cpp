@@ -1,9 +1,10 @@
-// A nodelet with an invalid parameter logs FATAL naming it and its allowed range, reports ERROR
-// on diagnostics and stays inert; the valid nodelets in the same manager keep running.
+// A nodelet with an invalid parameter (or a Matcher whose model directory does not exist) logs
+// FATAL naming it, reports ERROR on diagnostics and stays inert; the valid nodelets in the same
+// manager keep running.
 #include <gtest/gtest.h>
 
-#include <cctype>
 #include <map>
+#include <utility>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <nodelet/NodeletLoad.h>
@@ -48,11 +49,14 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   ASSERT_TRUE(waitFor([&] { return log_sub.getNumPublishers() >= 2; }, 30.0))
       << "not connected to the manager's /rosout (publishers: " << log_sub.getNumPublishers()
       << ")";
-  for (const char* name : {"preprocessor", "bridge", "matcher"}) {
+  const std::pair<const char*, const char*> nodelets[] = {{"preprocessor", "Preprocessor"},
+                                                          {"bridge", "Bridge"},
+                                                          {"matcher", "Matcher"},
+                                                          {"matcher_without_model", "Matcher"}};
+  for (const auto& [name, type] : nodelets) {
     nodelet::NodeletLoad load;
     load.request.name = std::string("/") + name;
-    load.request.type =
-        std::string("ccir_mapping/") + static_cast<char>(std::toupper(name[0])) + (name + 1);
+    load.request.type = std::string("ccir_mapping/") + type;
     ASSERT_TRUE(ros::service::call("/manager/load_nodelet", load)) << name;
     EXPECT_TRUE(load.response.success) << name;
   }
@@ -61,11 +65,18 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
       waitFor([&] { return fatal("voxel_leaf_m = -1 is out of range: allowed [0.01, 5]"); }, 30.0));
   EXPECT_TRUE(waitFor(
       [&] { return fatal("peers[0].port = 99999 is out of range: allowed [1, 65535]"); }, 30.0));
+  EXPECT_TRUE(waitFor(
+      [&] {
+        return fatal(
+            "model_dir: cannot load the place-recognition model: /nonexistent/model is "
+            "not a directory");
+      },
+      30.0));
   // Diagnostics say why the nodelets are inert (published a second after onInit returned).
   ASSERT_TRUE(waitFor(
       [&] {
         return status.count("preprocessor: flow") && status.count("bridge: flow") &&
-               status.count("matcher: flow");
+               status.count("matcher: flow") && status.count("matcher_without_model: flow");
       },
       30.0))
       << [&] {
@@ -76,6 +87,7 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   EXPECT_EQ(status["preprocessor: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["bridge: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["matcher: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);
+  EXPECT_EQ(status["matcher_without_model: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   ASSERT_FALSE(status["preprocessor: flow"].values.empty());
   EXPECT_EQ(status["preprocessor: flow"].values[0].value,
             "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");

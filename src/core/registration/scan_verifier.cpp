@@ -100,6 +100,10 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   const auto matches =
       features::nearestMatches(to.descriptors, from.descriptors, params_.match_neighbors);
   v.matches = static_cast<int>(matches.size());
+  if (v.matches < 3) {
+    v.reason = std::to_string(v.matches) + " descriptor correspondences, need 3";
+    return v;
+  }
   auto source = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   auto target = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   for (const auto& [i, j] : matches) {
@@ -107,10 +111,6 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
     const Eigen::Vector3f& t = from.keypoints[static_cast<std::size_t>(j)];
     source->push_back(pcl::PointXYZ(s.x(), s.y(), s.z()));
     target->push_back(pcl::PointXYZ(t.x(), t.y(), t.z()));
-  }
-  if (v.matches < 3) {
-    v.reason = std::to_string(v.matches) + " descriptor correspondences, need 3";
-    return v;
   }
   pcl::Indices pairs(matches.size());
   std::iota(pairs.begin(), pairs.end(), 0);
@@ -154,7 +154,7 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   const Eigen::Matrix4f from_to = gicp.getFinalTransformation();
   v.overlap = std::min(wallOverlap(*to_scan.walls, from_scan.walls, from_to),
                        wallOverlap(*from_scan.walls, to_scan.walls, from_to.inverse()));
-  v.relative.matrix() = gicp.getFinalTransformation().cast<double>();
+  v.relative.matrix() = from_to.cast<double>();
   v.covariance = alignment::Matrix6::Identity() * std::max(0.01, v.fitness_m2);
   v.covariance.bottomRightCorner<3, 3>() *= 0.1;
   if (!(v.fitness_m2 <= params_.max_fitness_m2)) {
