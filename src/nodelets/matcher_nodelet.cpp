@@ -84,18 +84,23 @@ class MatcherNodelet final : public PipelineNodelet {
     return described;
   }
 
-  /// Publishes the best verified candidate, if any, as a loop closure from a local keyframe.
-  void publishBest(const std::vector<pr::MatchCandidate>& candidates, const std::string& robot_to,
-                   core::KeyframeId keyframe_to, const ros::Time& stamp) {
+  /// Publishes the best verified candidate, if any, as a loop closure. `query` is the keyframe
+  /// the candidates were found for (own or a teammate's); the candidates' places are own
+  /// keyframes, or teammates' kept scans when they name a robot.
+  void publishBest(const std::vector<pr::MatchCandidate>& candidates,
+                   const std::string& query_robot, core::KeyframeId query, const ros::Time& stamp) {
     verified_ += candidates.size();
     const pr::MatchCandidate* best = pr::bestAccepted(candidates);
     if (!best) return;
+    const std::string& self = settings_.frames.robot_name;
+    const bool own_query = query_robot == self;
+    // "from" is this robot's keyframe; for own loops the older one, the place.
     auto loop = boost::make_shared<LoopClosure>();
     loop->header.stamp = stamp;
-    loop->robot_from = settings_.frames.robot_name;
-    loop->keyframe_from = best->keyframe;
-    loop->robot_to = robot_to;
-    loop->keyframe_to = keyframe_to;
+    loop->robot_from = self;
+    loop->keyframe_from = own_query && !best->robot.empty() ? query : best->keyframe;
+    loop->robot_to = best->robot.empty() ? query_robot : best->robot;
+    loop->keyframe_to = own_query && !best->robot.empty() ? best->keyframe : query;
     loop->relative_pose = conversions::toPoseMsg(best->verification.relative);
     for (int r = 0; r < 6; ++r) {
       for (int c = 0; c < 6; ++c) loop->covariance[r * 6 + c] = best->verification.covariance(r, c);
@@ -104,8 +109,7 @@ class MatcherNodelet final : public PipelineNodelet {
     loop->fitness_m2 = best->verification.fitness_m2;
     loop->inliers = static_cast<std::uint32_t>(best->verification.inliers);
     loop->method = pr::toString(settings_.core.method);
-    count(robot_to == settings_.frames.robot_name ? "out loop_closures (own)"
-                                                  : "out loop_closures (teammates)");
+    count(loop->robot_to == self ? "out loop_closures (own)" : "out loop_closures (teammates)");
     loop_pub_.publish(loop);
   }
 
@@ -125,9 +129,12 @@ class MatcherNodelet final : public PipelineNodelet {
         static_cast<std::uint32_t>(described->scan.features.descriptors.size());
     count("out features");
     features_pub_.publish(features);
+    // Teammates' scans kept so far may show this place too (they came before this robot did).
+    const std::string& self = settings_.frames.robot_name;
+    publishBest(matcher_->matchKeptScans(*described), self, keyframe->id, keyframe->header.stamp);
     const auto candidates = matcher_->addOwn(std::move(*described));
     places_ = matcher_->places();
-    publishBest(candidates, settings_.frames.robot_name, keyframe->id, keyframe->header.stamp);
+    publishBest(candidates, self, keyframe->id, keyframe->header.stamp);
   }
 
   bool fromTeammate(const std::string& robot, const char* what) {
@@ -167,13 +174,16 @@ class MatcherNodelet final : public PipelineNodelet {
   void onPeerScan(const Keyframe::ConstPtr& scan) {
     count("in inbox/scans", scan->cloud.data.size());
     if (!fromTeammate(scan->robot, "scans")) return;
-    const auto described = describe(*scan, "teammate");
+    auto described = describe(*scan, "teammate");
     if (!described) return;
     publishBest(matcher_->matchTeammate(*described), scan->robot, scan->id, scan->header.stamp);
+    matcher_->keepTeammateScan(scan->robot, std::move(*described));
+    kept_ = matcher_->keptScans();
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
     status.add("places", places_.load());
+    status.add("teammate scans kept", kept_.load());
     status.add("candidates verified", verified_.load());
     if (const std::size_t n = described_.load()) {
       status.add("ms to describe a keyframe (mean)", 1e-3 * describe_us_.load() / n);
@@ -185,6 +195,7 @@ class MatcherNodelet final : public PipelineNodelet {
   double path_m_ = 0.0;  // odometry path length of the own keyframes so far
   // For diagnostics, which run on another thread.
   std::atomic<std::size_t> places_{0};
+  std::atomic<std::size_t> kept_{0};
   std::atomic<std::size_t> described_{0};
   std::atomic<std::size_t> verified_{0};
   std::atomic<std::uint64_t> describe_us_{0};

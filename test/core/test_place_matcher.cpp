@@ -141,6 +141,30 @@ TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
   }
 }
 
+TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
+  PlaceMatcher matcher(MatcherParams{}, model_);
+  matcher.addOwn(keyframe(matcher, 0, 0.0, 0));
+  // robot_b scanned place 1 before this robot got there: no match yet, the scan is kept.
+  const DescribedKeyframe theirs = keyframe(matcher, 42, 1.0, 1);
+  EXPECT_EQ(bestAccepted(matcher.matchTeammate(theirs)), nullptr);
+  matcher.keepTeammateScan("robot_b", theirs);
+  EXPECT_EQ(matcher.keptScans(), 1U);
+  EXPECT_EQ(matcher.places(), 1U);
+  // This robot arrives at place 1: the kept scan is found, the query being "from".
+  const auto candidates = matcher.matchKeptScans(keyframe(matcher, 1, 2.0, 1));
+  const MatchCandidate* best = bestAccepted(candidates);
+  ASSERT_NE(best, nullptr);
+  EXPECT_EQ(best->robot, "robot_b");
+  EXPECT_EQ(best->keyframe, 42U);
+  EXPECT_LT(best->verification.relative.translation().norm(), 0.05);
+  // Own places carry no robot name, and a kept scan never answers for an own loop.
+  for (const auto& c : matcher.addOwn(keyframe(matcher, 2, 100.0, 0))) {
+    EXPECT_TRUE(c.robot.empty());
+    EXPECT_NE(c.keyframe, 42U);
+  }
+  EXPECT_EQ(bestAccepted(matcher.matchKeptScans(keyframe(matcher, 3, 101.0, 2))), nullptr);
+}
+
 TEST_F(PlaceMatcherTest, CorrespondencesCountSharedWordsAboveTheMinimum) {
   MatcherParams params;
   params.min_correspondences = 3;

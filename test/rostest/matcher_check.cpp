@@ -1,8 +1,9 @@
 // Checks the two Matchers of matcher.test while the simulated mission replays: every keyframe
 // gets a word set under the shipped vocabulary, every teammate word set gets correspondences,
 // a word set under another vocabulary is refused, and inter-robot loop closures are found, many
-// of them agreeing with ground truth. The small mine is symmetric, so many are aliased (turned by
-// 90 or 180 degrees); robot_a's Backend must still find the true transform to robot_b's frame.
+// of them agreeing with ground truth, by both robots (robot_b through robot_a's kept scans). The
+// small mine is symmetric, so some are aliased (turned by 90 or 180 degrees); each Backend must
+// still find the true transform to its teammate's frame.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -121,12 +122,13 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
           }
         }
       });
-  TeamTransform::ConstPtr team;
-  ros::Subscriber team_sub = nh.subscribe<TeamTransform>("/robot_a/team_transforms", 10,
-                                                         [&](const TeamTransform::ConstPtr& m) {
-                                                           if (m->valid && m->peer == "robot_b")
-                                                             team = m;
-                                                         });
+  std::map<std::string, TeamTransform::ConstPtr> team;  // each robot's latest valid one
+  for (const std::string robot : kRobots) {
+    subs.push_back(nh.subscribe<TeamTransform>("/" + robot + "/team_transforms", 10,
+                                               [&team, robot](const TeamTransform::ConstPtr& m) {
+                                                 if (m->valid) team[robot] = m;
+                                               }));
+  }
   ros::Time now;
   ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
       "/clock", 10, [&](const rosgraph_msgs::Clock::ConstPtr& m) { now = m->clock; });
@@ -208,6 +210,7 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
   int inter = 0;
   int correct = 0;
   for (const std::string robot : kRobots) {
+    int correct_here = 0;
     for (const auto& loop : record[robot].loops) {
       EXPECT_EQ(loop->robot_from, robot);
       if (loop->robot_to == robot) continue;
@@ -227,30 +230,37 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
                loop->robot_to.c_str(), static_cast<unsigned long>(loop->keyframe_to),
                static_cast<int>(loop->inliers), loop->fitness_m2, error.translation().norm(),
                angle * 180 / M_PI);
-      correct += error.translation().norm() < 0.5 && angle < 5 * M_PI / 180;
+      correct_here += error.translation().norm() < 0.5 && angle < 5 * M_PI / 180;
       EXPECT_EQ(loop->method, "fabmap");
       EXPECT_GE(loop->inliers, 6U);
     }
+    // robot_b follows robot_a: its closures come from robot_a's scans kept before it arrived.
+    EXPECT_GE(correct_here, 5) << robot << "'s correct inter-robot loop closures";
+    correct += correct_here;
   }
   EXPECT_GE(correct, 10) << "of " << inter << " inter-robot loop closures agree with ground truth";
   // Aliased ones (min_inliers 6 lets them through) must not outnumber the true ones 2 : 1.
   EXPECT_GE(3 * correct, inter) << correct << " of " << inter << " agree with ground truth";
 
-  // The Backend's EM picks the consistent ones: robot_b's odom frame in robot_a's (the map
+  // Each Backend's EM picks the consistent ones: the teammate's odom frame in its own (the map
   // frames start there; 30 s of odometry drift is well inside the tolerance).
-  ASSERT_TRUE(waitFor([&] { return team != nullptr; }, 20.0))
-      << "robot_a's Backend announced no valid transform to robot_b";
-  const core::Pose3 expected =
-      truth.at("robot_a").world_from_odom.inverse() * truth.at("robot_b").world_from_odom;
-  const core::Pose3 estimate = *conversions::toPose(team->transform);
-  const core::Pose3 error = expected.inverse() * estimate;
-  ROS_INFO("team transform from %u of %u closures: error %.2f m %.1f deg", team->inliers,
-           team->candidates, error.translation().norm(),
-           Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI);
-  EXPECT_EQ(team->header.frame_id, "robot_a/map");
-  EXPECT_EQ(team->child_frame_id, "robot_b/map");
-  EXPECT_LT(error.translation().norm(), 1.0);
-  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 5 * M_PI / 180);
+  ASSERT_TRUE(waitFor([&] { return team.size() == 2; }, 20.0))
+      << "a Backend announced no valid transform to its teammate";
+  for (const std::string robot : kRobots) {
+    const std::string peer = robot == "robot_a" ? "robot_b" : "robot_a";
+    const TeamTransform& t = *team.at(robot);
+    const core::Pose3 expected =
+        truth.at(robot).world_from_odom.inverse() * truth.at(peer).world_from_odom;
+    const core::Pose3 error = expected.inverse() * *conversions::toPose(t.transform);
+    ROS_INFO("%s: team transform from %u of %u closures: error %.2f m %.1f deg", robot.c_str(),
+             t.inliers, t.candidates, error.translation().norm(),
+             Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI);
+    EXPECT_EQ(t.peer, peer);
+    EXPECT_EQ(t.header.frame_id, robot + "/map");
+    EXPECT_EQ(t.child_frame_id, peer + "/map");
+    EXPECT_LT(error.translation().norm(), 1.0) << robot;
+    EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 5 * M_PI / 180) << robot;
+  }
 }
 
 }  // namespace

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <map>
 #include <stdexcept>
 
 namespace ccir_mapping::core::place_recognition {
@@ -48,15 +48,58 @@ const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates
   return best;
 }
 
+/// Places with their indices: FAB-MAP 2.0, the histogram, and word postings for c_k.
+class PlaceMatcher::PlaceSet {
+ public:
+  PlaceSet(const FabMapModel& model, const std::vector<WordSet>& samples,
+           const HistogramParams& histogram, std::size_t words)
+      : fabmap(model, samples), histogram(histogram), postings(words) {}
+
+  void add(const std::string& robot, DescribedKeyframe keyframe) {
+    const auto index = static_cast<std::uint32_t>(places.size());
+    for (const std::uint32_t w : keyframe.words) {
+      if (w < postings.size()) postings[w].push_back(index);
+    }
+    fabmap.addPlace(keyframe.words);
+    histogram.addKeyframe(index, keyframe.scan.features.descriptors);
+    index_of[{robot, keyframe.id}] = index;
+    robots.push_back(robot);
+    places.push_back(std::move(keyframe));
+  }
+
+  /// Words each place shares with `words`.
+  std::vector<int> shared(const WordSet& words) const {
+    std::vector<int> count(places.size(), 0);
+    for (const std::uint32_t w : words) {
+      if (w >= postings.size()) continue;  // a foreign vocabulary is refused before this
+      for (const std::uint32_t place : postings[w]) ++count[place];
+    }
+    return count;
+  }
+
+  std::vector<DescribedKeyframe> places;
+  std::vector<std::string> robots;  // of each place; empty for own keyframes
+  std::map<std::pair<std::string, KeyframeId>, std::size_t> index_of;
+  FabMap2 fabmap;
+  HistogramMatcher histogram;
+  std::vector<std::vector<std::uint32_t>> postings;  // word -> places holding it
+};
+
 PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const PlaceModel> model)
     : params_(checked(params)),
       model_(std::move(model)),
       extractor_(required(model_).features),
       verifier_(verificationParams(params_)),
       fabmap_model_(model_->tree, FabMapParams{}),
-      fabmap_(fabmap_model_, model_->samples),
-      histogram_(histogramParams(params_)),
-      postings_(model_->vocabulary.size()) {}
+      own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
+                                      model_->vocabulary.size())),
+      kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
+                                       model_->vocabulary.size())) {}
+
+PlaceMatcher::~PlaceMatcher() = default;
+
+std::size_t PlaceMatcher::places() const { return own_->places.size(); }
+std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
 
 DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
                                          const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
@@ -75,21 +118,12 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
   return k;
 }
 
-std::vector<int> PlaceMatcher::sharedWords(const WordSet& words) const {
-  std::vector<int> shared(places_.size(), 0);
-  for (const std::uint32_t w : words) {
-    if (w >= postings_.size()) continue;  // a foreign vocabulary is refused before this
-    for (const std::uint32_t place : postings_[w]) ++shared[place];
-  }
-  return shared;
-}
-
 std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const WordSet& words) const {
-  const std::vector<int> shared = sharedWords(words);
+  const std::vector<int> shared = own_->shared(words);
   std::vector<std::pair<KeyframeId, int>> result;
   for (std::size_t i = 0; i < shared.size(); ++i) {
     if (shared[i] > 0 && shared[i] >= params_.min_correspondences) {
-      result.emplace_back(places_[i].id, shared[i]);
+      result.emplace_back(own_->places[i].id, shared[i]);
     }
   }
   std::stable_sort(result.begin(), result.end(),
@@ -97,43 +131,46 @@ std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const Word
   return result;
 }
 
-std::vector<MatchCandidate> PlaceMatcher::match(const DescribedKeyframe& query,
-                                                Stamp newest) const {
-  const std::vector<int> shared = sharedWords(query.words);
-  auto eligible = [&](std::size_t place) { return places_[place].stamp <= newest; };
+std::vector<MatchCandidate> PlaceMatcher::match(
+    const PlaceSet& set, const DescribedKeyframe& query,
+    const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {
+  const std::vector<int> shared = set.shared(query.words);
   // Ranked places: (index, score).
   std::vector<std::pair<std::size_t, double>> ranked;
   if (params_.method == MatchMethod::kFabmap) {
-    const std::vector<double> posterior = fabmap_.posterior(query.words);
-    for (std::size_t i = 0; i < places_.size(); ++i) {
-      if (eligible(i) && shared[i] >= params_.min_correspondences) {
+    const std::vector<double> posterior = set.fabmap.posterior(query.words);
+    for (std::size_t i = 0; i < set.places.size(); ++i) {
+      if (eligible(set.places[i]) && shared[i] >= params_.min_correspondences) {
         ranked.emplace_back(i, posterior[i]);
       }
     }
     std::stable_sort(ranked.begin(), ranked.end(),
                      [](const auto& a, const auto& b) { return a.second > b.second; });
   } else {
-    for (const auto& peak : histogram_.candidates(query.scan.features.descriptors)) {
-      if (eligible(peak.keyframe)) ranked.emplace_back(peak.keyframe, peak.votes);
+    for (const auto& peak : set.histogram.candidates(query.scan.features.descriptors)) {
+      if (eligible(set.places[peak.keyframe])) ranked.emplace_back(peak.keyframe, peak.votes);
     }
   }
   if (ranked.size() > static_cast<std::size_t>(params_.max_candidates)) {
     ranked.resize(static_cast<std::size_t>(params_.max_candidates));
   }
   std::vector<MatchCandidate> candidates;
-  for (const auto& [place, score] : ranked) {
+  for (const auto& [index, score] : ranked) {
+    const DescribedKeyframe& place = set.places[index];
     MatchCandidate c;
-    c.keyframe = places_[place].id;
+    c.robot = set.robots[index];
+    c.keyframe = place.id;
     c.score = score;
-    c.correspondences = shared[place];
-    c.verification = verifier_.verify(places_[place].scan, query.scan);
+    c.correspondences = shared[index];
+    c.verification = query_is_from ? verifier_.verify(query.scan, place.scan)
+                                   : verifier_.verify(place.scan, query.scan);
     candidates.push_back(std::move(c));
   }
   return candidates;
 }
 
 void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate& c) const {
-  const DescribedKeyframe& place = places_[place_of_.at(c.keyframe)];
+  const DescribedKeyframe& place = own_->places[own_->index_of.at({"", c.keyframe})];
   if (!c.verification.accepted || !query.odom_pose || !place.odom_pose ||
       params_.own_loop_gate_m_per_m <= 0.0 || params_.own_loop_gate_rad_per_m <= 0.0) {
     return;
@@ -156,21 +193,25 @@ void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate
 
 std::vector<MatchCandidate> PlaceMatcher::addOwn(DescribedKeyframe keyframe) {
   const Stamp newest = keyframe.stamp - fromSeconds(params_.loop_exclusion_s);
-  auto candidates = match(keyframe, newest);
+  auto candidates = match(
+      *own_, keyframe, [newest](const DescribedKeyframe& k) { return k.stamp <= newest; }, false);
   for (auto& c : candidates) gateByOdometry(keyframe, c);
-  const auto index = static_cast<std::uint32_t>(places_.size());
-  place_of_[keyframe.id] = index;
-  for (const std::uint32_t w : keyframe.words) {
-    if (w < postings_.size()) postings_[w].push_back(index);
-  }
-  fabmap_.addPlace(keyframe.words);
-  histogram_.addKeyframe(index, keyframe.scan.features.descriptors);
-  places_.push_back(std::move(keyframe));
+  own_->add("", std::move(keyframe));
   return candidates;
 }
 
 std::vector<MatchCandidate> PlaceMatcher::matchTeammate(const DescribedKeyframe& keyframe) const {
-  return match(keyframe, std::numeric_limits<Stamp>::max());
+  return match(
+      *own_, keyframe, [](const DescribedKeyframe&) { return true; }, false);
+}
+
+void PlaceMatcher::keepTeammateScan(const std::string& robot, DescribedKeyframe keyframe) {
+  kept_->add(robot, std::move(keyframe));
+}
+
+std::vector<MatchCandidate> PlaceMatcher::matchKeptScans(const DescribedKeyframe& keyframe) const {
+  return match(
+      *kept_, keyframe, [](const DescribedKeyframe&) { return true; }, true);
 }
 
 }  // namespace ccir_mapping::core::place_recognition

@@ -1,11 +1,13 @@
 // Loop-closure detection for one robot: its keyframes become places (FAB-MAP 2.0 or the
-// histogram baseline); an own keyframe is matched against older own places and a teammate's
-// keyframe against all of them; the best-ranked candidates are verified geometrically.
+// histogram baseline); an own keyframe is matched against older own places and against the
+// teammates' scans kept so far, a teammate's scan against every own place; the best-ranked
+// candidates are verified geometrically.
 #pragma once
 
-#include <map>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -35,13 +37,14 @@ struct DescribedKeyframe {
 };
 
 struct MatchCandidate {
-  /// The local place.
+  /// The place: an own keyframe (robot empty) or a kept scan of the teammate `robot`.
+  std::string robot;
   KeyframeId keyframe = 0;
   /// FAB-MAP posterior, or histogram votes.
   double score = 0.0;
   /// c_k: words shared with the query.
   int correspondences = 0;
-  /// "from" = the local place, "to" = the query.
+  /// "from" is always this robot's keyframe (for own loops the older one), "to" the other.
   registration::Verification verification;
 };
 
@@ -52,9 +55,10 @@ class PlaceMatcher {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors or the model is null.
   PlaceMatcher(const MatcherParams& params, std::shared_ptr<const PlaceModel> model);
+  ~PlaceMatcher();
 
   const PlaceModel& model() const { return *model_; }
-  std::size_t places() const { return places_.size(); }
+  std::size_t places() const;
 
   /// Features (with the model's settings), words and verification cloud of a keyframe cloud in
   /// its sensor frame; `up` is gravity's opposite in that frame.
@@ -75,24 +79,33 @@ class PlaceMatcher {
   /// than the drift gate allows is not accepted (perceptual aliasing).
   std::vector<MatchCandidate> addOwn(DescribedKeyframe keyframe);
 
-  /// Matches a teammate's keyframe against every place; it does not become a place.
+  /// Matches a teammate's keyframe against every own place; it does not become a place.
   std::vector<MatchCandidate> matchTeammate(const DescribedKeyframe& keyframe) const;
 
+  /// Keeps a teammate's scan, so that own keyframes made later are matched against it.
+  void keepTeammateScan(const std::string& robot, DescribedKeyframe keyframe);
+  std::size_t keptScans() const;
+
+  /// Matches an own keyframe (not yet added) against the kept teammate scans.
+  std::vector<MatchCandidate> matchKeptScans(const DescribedKeyframe& keyframe) const;
+
  private:
-  std::vector<MatchCandidate> match(const DescribedKeyframe& query, Stamp newest) const;
+  class PlaceSet;
+
+  /// Verified candidates among `set`'s places accepted by `eligible`, best-ranked first;
+  /// `query_is_from`: the query is the own keyframe ("from") rather than the place.
+  std::vector<MatchCandidate> match(const PlaceSet& set, const DescribedKeyframe& query,
+                                    const std::function<bool(const DescribedKeyframe&)>& eligible,
+                                    bool query_is_from) const;
   void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
-  std::vector<int> sharedWords(const WordSet& words) const;
 
   MatcherParams params_;
   std::shared_ptr<const PlaceModel> model_;
   features::FeatureExtractor extractor_;
   registration::ScanVerifier verifier_;
   FabMapModel fabmap_model_;
-  FabMap2 fabmap_;
-  HistogramMatcher histogram_;
-  std::vector<DescribedKeyframe> places_;
-  std::map<KeyframeId, std::size_t> place_of_;        // keyframe id -> index in places_
-  std::vector<std::vector<std::uint32_t>> postings_;  // word -> places holding it
+  std::unique_ptr<PlaceSet> own_;
+  std::unique_ptr<PlaceSet> kept_;  // teammates' scans
 };
 
 }  // namespace ccir_mapping::core::place_recognition
