@@ -115,9 +115,9 @@ class MatcherNodelet final : public PipelineNodelet {
 
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
     count("in keyframes");
+    path_m_ += keyframe->travelled_m;  // also when the keyframe is dropped: the robot moved
     auto described = describe(*keyframe, "own");
     if (!described) return;
-    path_m_ += keyframe->travelled_m;
     described->path_m = path_m_;
     auto features = boost::make_shared<KeyframeFeatures>();
     features->header = keyframe->header;
