@@ -248,8 +248,7 @@ std::vector<std::string> AlignmentParams::validate() const {
 
 AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& candidates,
                                        const AlignmentParams& params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
+  validated(params);
   AlignmentResult result;
   const int n = static_cast<int>(candidates.size());
   result.weights.assign(candidates.size(), 0.0);

@@ -221,10 +221,8 @@ std::vector<std::string> OptimizerParams::validate() const {
   return check.errors();
 }
 
-PoseGraphOptimizer::PoseGraphOptimizer(const OptimizerParams& params) : params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-}
+PoseGraphOptimizer::PoseGraphOptimizer(const OptimizerParams& params)
+    : params_(validated(params)) {}
 
 OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
   checkEdges(graph);

@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "ccir_mapping/core/common/param_check.h"
+
 namespace ccir_mapping::core::backend {
 namespace {
 
@@ -16,12 +18,6 @@ OptimizerParams optimizerParams(const BackendParams& p) {
   o.max_iterations = p.max_iterations;
   o.max_solve_time_s = p.max_solve_time_s;
   return o;
-}
-
-const BackendParams& validated(const BackendParams& params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-  return params;
 }
 
 }  // namespace

@@ -9,16 +9,14 @@
 #include <pcl/keypoints/iss_3d.h>
 #include <pcl/search/kdtree.h>
 
+#include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/preprocess/voxel_downsample.h"
 
 namespace ccir_mapping::core::features {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZINormal>;
 
-FeatureExtractor::FeatureExtractor(const FeatureParams& params) : params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-}
+FeatureExtractor::FeatureExtractor(const FeatureParams& params) : params_(validated(params)) {}
 
 LocalFeatures FeatureExtractor::extract(const Cloud& cloud, const Eigen::Vector3f& up,
                                         ExtractionStats* stats) const {

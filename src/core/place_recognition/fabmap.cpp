@@ -40,9 +40,7 @@ std::vector<std::string> FabMapParams::validate() const {
 }
 
 FabMapModel::FabMapModel(const ChowLiuTree& tree, const FabMapParams& params)
-    : tree_(tree), params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
+    : tree_(tree), params_(validated(params)) {
   const double pzge = params.p_z_given_e;
   const double pzgne = params.p_z_given_not_e;
   table_.resize(tree.size());
@@ -143,6 +141,17 @@ void FabMap2::index(const WordSet& words) {
 }
 
 void FabMap2::addPlace(const WordSet& words) { index(words); }
+
+std::vector<int> FabMap2::sharedWords(const WordSet& observation) const {
+  std::vector<int> shared(places(), 0);
+  for (const auto q : observation) {
+    if (q >= postings_.size()) continue;
+    for (const auto entry : postings_[q]) {
+      if (entry >= samples_) ++shared[entry - samples_];
+    }
+  }
+  return shared;
+}
 
 std::vector<double> FabMap2::logLikelihoods(const WordSet& observation) const {
   const ChowLiuTree& tree = model_.tree();

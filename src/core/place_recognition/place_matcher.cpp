@@ -5,14 +5,10 @@
 #include <map>
 #include <stdexcept>
 
+#include "ccir_mapping/core/common/param_check.h"
+
 namespace ccir_mapping::core::place_recognition {
 namespace {
-
-MatcherParams checked(const MatcherParams& params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-  return params;
-}
 
 const PlaceModel& required(const std::shared_ptr<const PlaceModel>& model) {
   if (!model) throw std::invalid_argument("PlaceMatcher needs a place-recognition model");
@@ -48,18 +44,16 @@ const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates
   return best;
 }
 
-/// Places with their indices: FAB-MAP 2.0, the histogram, and word postings for c_k.
+/// Places with their indices: FAB-MAP 2.0 (whose inverted index also gives c_k) and the
+/// histogram.
 class PlaceMatcher::PlaceSet {
  public:
   PlaceSet(const FabMapModel& model, const std::vector<WordSet>& samples,
-           const HistogramParams& histogram, std::size_t words)
-      : fabmap(model, samples), histogram(histogram), postings(words) {}
+           const HistogramParams& histogram)
+      : fabmap(model, samples), histogram(histogram) {}
 
   void add(const std::string& robot, DescribedKeyframe keyframe) {
     const auto index = static_cast<std::uint32_t>(places.size());
-    for (const std::uint32_t w : keyframe.words) {
-      if (w < postings.size()) postings[w].push_back(index);
-    }
     fabmap.addPlace(keyframe.words);
     histogram.addKeyframe(index, keyframe.scan.features.descriptors);
     index_of[{robot, keyframe.id}] = index;
@@ -67,34 +61,21 @@ class PlaceMatcher::PlaceSet {
     places.push_back(std::move(keyframe));
   }
 
-  /// Words each place shares with `words`.
-  std::vector<int> shared(const WordSet& words) const {
-    std::vector<int> count(places.size(), 0);
-    for (const std::uint32_t w : words) {
-      if (w >= postings.size()) continue;  // a foreign vocabulary is refused before this
-      for (const std::uint32_t place : postings[w]) ++count[place];
-    }
-    return count;
-  }
-
   std::vector<DescribedKeyframe> places;
   std::vector<std::string> robots;  // of each place; empty for own keyframes
   std::map<std::pair<std::string, KeyframeId>, std::size_t> index_of;
   FabMap2 fabmap;
   HistogramMatcher histogram;
-  std::vector<std::vector<std::uint32_t>> postings;  // word -> places holding it
 };
 
 PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const PlaceModel> model)
-    : params_(checked(params)),
+    : params_(validated(params)),
       model_(std::move(model)),
       extractor_(required(model_).features),
       verifier_(verificationParams(params_)),
       fabmap_model_(model_->tree, FabMapParams{}),
-      own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
-                                      model_->vocabulary.size())),
-      kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
-                                       model_->vocabulary.size())) {}
+      own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))),
+      kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))) {}
 
 PlaceMatcher::~PlaceMatcher() = default;
 
@@ -119,7 +100,7 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
 }
 
 std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const WordSet& words) const {
-  const std::vector<int> shared = own_->shared(words);
+  const std::vector<int> shared = own_->fabmap.sharedWords(words);
   std::vector<std::pair<KeyframeId, int>> result;
   for (std::size_t i = 0; i < shared.size(); ++i) {
     if (shared[i] > 0 && shared[i] >= params_.min_correspondences) {
@@ -134,7 +115,7 @@ std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const Word
 std::vector<MatchCandidate> PlaceMatcher::match(
     const PlaceSet& set, const DescribedKeyframe& query,
     const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {
-  const std::vector<int> shared = set.shared(query.words);
+  const std::vector<int> shared = set.fabmap.sharedWords(query.words);
   // Ranked places: (index, score).
   std::vector<std::pair<std::size_t, double>> ranked;
   if (params_.method == MatchMethod::kFabmap) {

@@ -6,14 +6,12 @@
 #include <pcl/features/normal_3d_omp.h>
 #include <pcl/search/kdtree.h>
 
+#include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/preprocess/voxel_downsample.h"
 
 namespace ccir_mapping::core::preprocess {
 
-ScanPreprocessor::ScanPreprocessor(const PreprocessorParams& params) : params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-}
+ScanPreprocessor::ScanPreprocessor(const PreprocessorParams& params) : params_(validated(params)) {}
 
 namespace {
 

@@ -73,10 +73,7 @@ std::vector<std::string> VerificationParams::validate() const {
   return check.errors();
 }
 
-ScanVerifier::ScanVerifier(const VerificationParams& params) : params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
-}
+ScanVerifier::ScanVerifier(const VerificationParams& params) : params_(validated(params)) {}
 
 PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                    features::LocalFeatures features) const {

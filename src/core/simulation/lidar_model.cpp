@@ -5,14 +5,14 @@
 #include <limits>
 #include <stdexcept>
 
+#include "ccir_mapping/core/common/param_check.h"
+
 namespace ccir_mapping::core::simulation {
 namespace {
 constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
-LidarModel::LidarModel(const LidarParams& params) : params_(params) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
+LidarModel::LidarModel(const LidarParams& params) : params_(validated(params)) {
   directions_.reserve(static_cast<size_t>(params.lidar_columns) * kRings);
   for (int c = 0; c < params.lidar_columns; ++c) {
     const double azimuth = azimuthRad(c);

@@ -9,6 +9,8 @@
 
 #include <Eigen/Geometry>
 
+#include "ccir_mapping/core/common/param_check.h"
+
 namespace ccir_mapping::core::simulation {
 namespace {
 
@@ -504,8 +506,7 @@ World buildCluttered(const WorldParams& p, Rng& rng) {
 }  // namespace
 
 World buildWorld(const WorldParams& params, std::uint64_t seed) {
-  const auto errors = params.validate();
-  if (!errors.empty()) throw std::invalid_argument(errors.front());
+  validated(params);
   Rng rng(seed);
   World world = params.world == "building"    ? buildBuilding(params, rng)
                 : params.world == "cave"      ? buildCave(params, rng)

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <initializer_list>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,5 +35,14 @@ std::string notOneOf(std::string_view name, std::string_view value, std::string_
 
 /// True for a name usable as a robot name and frame prefix ("robot_a").
 bool isValidRobotName(std::string_view name);
+
+/// `params` itself when params.validate() reports nothing; otherwise throws
+/// std::invalid_argument with the first error (which names the parameter).
+template <class Params>
+const Params& validated(const Params& params) {
+  const std::vector<std::string> errors = params.validate();
+  if (!errors.empty()) throw std::invalid_argument(errors.front());
+  return params;
+}
 
 }  // namespace ccir_mapping::core

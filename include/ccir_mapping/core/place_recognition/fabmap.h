@@ -83,6 +83,9 @@ class FabMap2 {
   /// Relative log-likelihoods: log p(Z | L_i) minus a constant of the query, then the new place.
   std::vector<double> logLikelihoods(const WordSet& observation) const;
   std::vector<double> posterior(const WordSet& observation) const;
+  /// For each place, how many words of `observation` it holds (from the inverted index); word
+  /// ids outside the vocabulary are ignored.
+  std::vector<int> sharedWords(const WordSet& observation) const;
 
  private:
   void index(const WordSet& words);
