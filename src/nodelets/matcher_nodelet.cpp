@@ -2,6 +2,7 @@
 // for teammates) and intra-robot loop closures; a teammate's word set -> correspondences (c_k of
 // the local keyframes: CCIR's loop-closure potential); a teammate's scan -> inter-robot loop
 // closures. The work is PlaceMatcher's; this converts messages and publishes.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -156,6 +157,20 @@ class MatcherNodelet final : public PipelineNodelet {
                             static_cast<unsigned long>(features->keyframe_id),
                             features->vocabulary_hash.c_str(), vocabularyHash().c_str());
       count("dropped features (other vocabulary)");
+      return;
+    }
+    const auto& words = features->words;
+    const bool sorted_unique =
+        std::adjacent_find(words.begin(), words.end(),
+                           [](std::uint32_t a, std::uint32_t b) { return a >= b; }) == words.end();
+    if (!sorted_unique || (!words.empty() && words.back() >= matcher_->model().vocabulary.size())) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "refusing features of %s keyframe %lu: word ids are not sorted, "
+                            "unique and below %zu",
+                            features->robot.c_str(),
+                            static_cast<unsigned long>(features->keyframe_id),
+                            matcher_->model().vocabulary.size());
+      count("dropped features (malformed words)");
       return;
     }
     auto reply = boost::make_shared<Correspondences>();

@@ -1,9 +1,9 @@
 // Checks the two Matchers of matcher.test while the simulated mission replays: every keyframe
 // gets a word set under the shipped vocabulary, every teammate word set gets correspondences,
-// a word set under another vocabulary is refused, and inter-robot loop closures are found, many
-// of them agreeing with ground truth, by both robots (robot_b through robot_a's kept scans). The
-// small mine is symmetric, so some are aliased (turned by 90 or 180 degrees); each Backend must
-// still find the true transform to its teammate's frame.
+// a word set under another vocabulary or with malformed word ids is refused, and inter-robot loop
+// closures are found, many of them agreeing with ground truth, by both robots (robot_b through
+// robot_a's kept scans). The small mine is symmetric, so some are aliased (turned by 90 or 180
+// degrees); each Backend must still find the true transform to its teammate's frame.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -76,7 +76,8 @@ struct RobotRecord {
   std::vector<KeyframeFeatures::ConstPtr> features;
   std::vector<Correspondences::ConstPtr> correspondences;
   std::vector<LoopClosure::ConstPtr> loops;
-  double refused_features = 0;
+  double refused_features = 0;    // other vocabulary
+  double malformed_features = 0;  // right vocabulary, word ids not a sorted set
 };
 
 TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
@@ -118,6 +119,9 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
               if (entry.key == "dropped features (other vocabulary) messages") {
                 record[robot].refused_features = std::stod(entry.value);
               }
+              if (entry.key == "dropped features (malformed words) messages") {
+                record[robot].malformed_features = std::stod(entry.value);
+              }
             }
           }
         }
@@ -156,15 +160,24 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
   ASSERT_TRUE(ros::service::waitForService("/player/pause_playback", ros::Duration(60.0)));
   ASSERT_TRUE(ros::service::call("/player/pause_playback", resume));
   ASSERT_TRUE(waitFor([&] { return now >= end; }, 120.0)) << "the mission did not replay";
-  // Done when every keyframe has its word set and every word set its correspondences.
+  // A word set under the right vocabulary but with unsorted, repeated word ids: refused too.
+  ASSERT_FALSE(record["robot_b"].features.empty());
+  auto malformed = boost::make_shared<KeyframeFeatures>();
+  malformed->robot = "robot_a";
+  malformed->keyframe_id = 100001;
+  malformed->vocabulary_hash = record["robot_b"].features.front()->vocabulary_hash;
+  malformed->words = {7, 3, 3, 9};
+  foreign_pub.publish(malformed);
+  // Done when every keyframe has its word set and every good word set its correspondences.
   auto settled = [&] {
     const RobotRecord& a = record["robot_a"];
     const RobotRecord& b = record["robot_b"];
     return !a.keyframes.empty() && !b.keyframes.empty() &&
-           a.features.size() == a.keyframes.size() + 1 &&  // + the foreign one
+           a.features.size() == a.keyframes.size() + 2 &&  // + the two bad ones
            b.features.size() == b.keyframes.size() &&
            a.correspondences.size() == b.features.size() &&
-           b.correspondences.size() == a.features.size() - 1 && b.refused_features == 1;
+           b.correspondences.size() == a.features.size() - 2 && b.refused_features == 1 &&
+           b.malformed_features == 1;
   };
   EXPECT_TRUE(waitFor(settled, 30.0));
 
@@ -177,7 +190,9 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
              r.loops.size());
     EXPECT_GT(r.keyframes.size(), 15U);
     for (const auto& f : r.features) {
-      if (f->keyframe_id == foreign->keyframe_id) continue;
+      if (f->keyframe_id == foreign->keyframe_id || f->keyframe_id == malformed->keyframe_id) {
+        continue;
+      }
       if (hash.empty()) hash = f->vocabulary_hash;
       EXPECT_EQ(f->vocabulary_hash, hash);
       EXPECT_FALSE(f->words.empty()) << "keyframe " << f->keyframe_id;
@@ -192,6 +207,7 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
       EXPECT_EQ(c->robot, robot);
       EXPECT_EQ(c->peer, peer);
       EXPECT_NE(c->peer_keyframe_id, foreign->keyframe_id) << "the foreign word set was answered";
+      EXPECT_NE(c->peer_keyframe_id, malformed->keyframe_id) << "a malformed word set was answered";
       ASSERT_EQ(c->keyframe_ids.size(), c->counts.size());
       EXPECT_TRUE(std::is_sorted(c->counts.rbegin(), c->counts.rend()));
       for (const auto count : c->counts) EXPECT_GE(count, 3U);  // min_correspondences
@@ -201,6 +217,7 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
   }
   EXPECT_EQ(hash.size(), 16U);
   EXPECT_EQ(record["robot_b"].refused_features, 1.0);
+  EXPECT_EQ(record["robot_b"].malformed_features, 1.0);
 
   // Inter-robot loop closures: relative sensor poses against ground truth.
   std::map<std::pair<std::string, std::uint64_t>, Keyframe::ConstPtr> keyframe_of;
