@@ -105,6 +105,8 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("max_fitness_m2", p.max_fitness_m2);
   reader.read("min_overlap", p.min_overlap);
   reader.read("overlap_distance_m", p.overlap_distance_m);
+  reader.read("max_free_space_violation", p.max_free_space_violation);
+  reader.read("free_space_margin_m", p.free_space_margin_m);
   reader.addErrors(p.validate());
 }
 

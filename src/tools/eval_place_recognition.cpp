@@ -175,6 +175,13 @@ int main(int argc, char** argv) {
       "overlap-distance-m",
       po::value<double>(&params.overlap_distance_m)->default_value(params.overlap_distance_m),
       "verification: wall points closer than this overlap [m]")(
+      "max-free-space-violation",
+      po::value<double>(&params.max_free_space_violation)
+          ->default_value(params.max_free_space_violation),
+      "verification: share of wall points where the other scan saw free space")(
+      "free-space-margin-m",
+      po::value<double>(&params.free_space_margin_m)->default_value(params.free_space_margin_m),
+      "verification: ... beyond this margin [m]")(
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),
       "robot A's own keyframes younger than this are not matched [s]")(

@@ -360,6 +360,68 @@ TEST(ScanVerifier, DescriptorsWithoutGeometricConsensusAreRejectedEvenOnIdentica
   EXPECT_LT(same.relative.translation().norm(), 0.05);
 }
 
+/// Points every `step` on the walls of a square room around the sensor (half-width `half_m`,
+/// from 0.5 m below to 3.5 m above it), normals inward.
+pcl::PointCloud<pcl::PointXYZINormal> room(float half_m, float step) {
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  for (int wall = 0; wall < 4; ++wall) {
+    const float sign = wall < 2 ? 1.0F : -1.0F;
+    const int axis = wall % 2;
+    for (float a = -half_m; a <= half_m; a += step) {
+      for (float z = -0.5F; z <= 3.5F; z += step) {
+        pcl::PointXYZINormal p;
+        (axis ? p.y : p.x) = sign * half_m;
+        (axis ? p.x : p.y) = a;
+        p.z = z;
+        (axis ? p.normal_y : p.normal_x) = -sign;
+        cloud.push_back(p);
+      }
+    }
+  }
+  return cloud;
+}
+
+TEST(ScanVerifier, SurfaceWhereTheOtherScanSawFreeSpaceIsRejected) {
+  // The same room, but one scan also sees a pillar face 4 m ahead that the other looked past:
+  // the walls still overlap almost entirely, the pillar lies in the other's free space.
+  const auto empty = room(8.0F, 0.1F);
+  pcl::PointCloud<pcl::PointXYZINormal> with_pillar;
+  for (const auto& p : empty) {
+    if (p.x < 7.9F || std::abs(p.y) > 2.0F) with_pillar.push_back(p);  // the rest it hides
+  }
+  for (float y = -1.0F; y <= 1.0F; y += 0.1F) {
+    for (float z = -0.5F; z <= 3.5F; z += 0.1F) {
+      pcl::PointXYZINormal p;
+      p.x = 4.0F;
+      p.y = y;
+      p.z = z;
+      p.normal_x = -1.0F;
+      with_pillar.push_back(p);
+    }
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
+  features::LocalFeatures features;
+  for (int i = 0; i < 20; ++i) {
+    features::SpinImage d;
+    for (float& v : d) v = 0.5F + 0.05F * u(rng);
+    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
+    features.descriptors.push_back(d);
+  }
+  const ScanVerifier verifier{VerificationParams{}};
+  const Verification same = verifier.verify(empty, features, empty, features);
+  EXPECT_TRUE(same.accepted) << same.reason;
+  EXPECT_EQ(same.free_space_violation, 0.0);
+
+  for (const auto& v : {verifier.verify(empty, features, with_pillar, features),
+                        verifier.verify(with_pillar, features, empty, features)}) {
+    EXPECT_FALSE(v.accepted);
+    EXPECT_GT(v.overlap, 0.9) << "the overlap test alone would accept";
+    EXPECT_GT(v.free_space_violation, VerificationParams{}.max_free_space_violation);
+    EXPECT_NE(v.reason.find("free-space"), std::string::npos) << v.reason;
+  }
+}
+
 TEST(ScanVerifier, InvalidParametersAreNamed) {
   VerificationParams params;
   params.match_neighbors = 0;

@@ -249,15 +249,15 @@ TEST(Matcher, WordSetsCorrespondencesAndInterRobotLoopClosures) {
                angle * 180 / M_PI);
       correct_here += error.translation().norm() < 0.5 && angle < 5 * M_PI / 180;
       EXPECT_EQ(loop->method, "fabmap");
-      EXPECT_GE(loop->inliers, 6U);
+      EXPECT_GE(loop->inliers, 5U);  // the Matcher's min_inliers
     }
     // robot_b follows robot_a: its closures come from robot_a's scans kept before it arrived.
     EXPECT_GE(correct_here, 5) << robot << "'s correct inter-robot loop closures";
     correct += correct_here;
   }
   EXPECT_GE(correct, 10) << "of " << inter << " inter-robot loop closures agree with ground truth";
-  // Aliased ones (min_inliers 6 lets them through) must not outnumber the true ones 2 : 1.
-  EXPECT_GE(3 * correct, inter) << correct << " of " << inter << " agree with ground truth";
+  // Aliased places pass the descriptors but not the wall overlap and free-space tests.
+  EXPECT_GE(10 * correct, 9 * inter) << correct << " of " << inter << " agree with ground truth";
 
   // Each Backend's EM picks the consistent ones: the teammate's odom frame in its own (the map
   // frames start there; 30 s of odometry drift is well inside the tolerance).

@@ -25,6 +25,8 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
   check.inRange("min_overlap", min_overlap, 0.0, 1.0);
   check.inHalfOpenRange("overlap_distance_m", overlap_distance_m, 0.0, 10.0);
+  check.inRange("max_free_space_violation", max_free_space_violation, 0.0, 1.0);
+  check.inHalfOpenRange("free_space_margin_m", free_space_margin_m, 0.0, 10.0);
   return check.errors();
 }
 

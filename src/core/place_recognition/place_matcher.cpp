@@ -21,6 +21,8 @@ registration::VerificationParams verificationParams(const MatcherParams& params)
   v.max_fitness_m2 = params.max_fitness_m2;
   v.min_overlap = params.min_overlap;
   v.overlap_distance_m = params.overlap_distance_m;
+  v.max_free_space_violation = params.max_free_space_violation;
+  v.free_space_margin_m = params.free_space_margin_m;
   return v;
 }
 

@@ -1,12 +1,14 @@
 #include "ccir_mapping/core/registration/scan_verifier.h"
 
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <set>
 #include <stdexcept>
 
 #include <pcl/common/transforms.h>
 #include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/range_image/range_image.h>
 #include <pcl/registration/gicp.h>
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_registration.h>
@@ -31,6 +33,50 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr prepared(const pcl::PointCloud<pcl::PointXYZ
 }
 
 }  // namespace
+
+double ScanVerifier::freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
+                                        const pcl::PointCloud<pcl::PointXYZ>& from_cloud,
+                                        const Eigen::Matrix4f& from_to) const {
+  const float resolution = pcl::deg2rad(static_cast<float>(params_.range_image_resolution_deg));
+  pcl::RangeImage image;
+  image.createFromPointCloud(from_cloud, resolution, resolution, pcl::deg2rad(360.0F),
+                             pcl::deg2rad(180.0F), Eigen::Affine3f::Identity(),
+                             pcl::RangeImage::LASER_FRAME);
+  pcl::PointCloud<pcl::PointXYZ> moved;
+  pcl::transformPointCloud(to_walls, moved, from_to);
+  const auto range2 = static_cast<float>(params_.overlap_range_m * params_.overlap_range_m);
+  const auto margin = static_cast<float>(params_.free_space_margin_m);
+  int seen = 0;
+  int violating = 0;
+  for (const auto& p : moved) {
+    const float r2 = p.getVector3fMap().squaredNorm();
+    if (r2 > range2) continue;
+    int x = 0;
+    int y = 0;
+    float range = 0.0F;
+    image.getImagePoint(p.getVector3fMap(), x, y, range);
+    float nearest = std::numeric_limits<float>::infinity();
+    bool agrees = false;
+    bool observed = false;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (!image.isValid(x + dx, y + dy)) continue;
+        const float r = image.getPoint(x + dx, y + dy).range;
+        observed = true;
+        agrees |= std::abs(r - range) <= margin;
+        nearest = std::min(nearest, r);
+      }
+    }
+    if (!observed) continue;
+    if (agrees) {
+      ++seen;
+    } else if (nearest > range + margin) {
+      ++seen;
+      ++violating;
+    }
+  }
+  return seen ? static_cast<double>(violating) / seen : 0.0;
+}
 
 double ScanVerifier::wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
                                  const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
@@ -69,6 +115,9 @@ std::vector<std::string> VerificationParams::validate() const {
   check.inRange("min_overlap", min_overlap, 0.0, 1.0);
   check.inHalfOpenRange("overlap_distance_m", overlap_distance_m, 0.0, 10.0);
   check.inHalfOpenRange("overlap_range_m", overlap_range_m, 0.0, 300.0);
+  check.inRange("max_free_space_violation", max_free_space_violation, 0.0, 1.0);
+  check.inHalfOpenRange("free_space_margin_m", free_space_margin_m, 0.0, 10.0);
+  check.inHalfOpenRange("range_image_resolution_deg", range_image_resolution_deg, 0.0, 10.0);
   check.inRange("wall_normal_z", wall_normal_z, 0.0, 1.0);
   return check.errors();
 }
@@ -151,6 +200,9 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   const Eigen::Matrix4f from_to = gicp.getFinalTransformation();
   v.overlap = std::min(wallOverlap(*to_scan.walls, from_scan.walls, from_to),
                        wallOverlap(*from_scan.walls, to_scan.walls, from_to.inverse()));
+  v.free_space_violation =
+      std::max(freeSpaceViolation(*to_scan.walls, *from_scan.cloud, from_to),
+               freeSpaceViolation(*from_scan.walls, *to_scan.cloud, from_to.inverse()));
   v.relative.matrix() = from_to.cast<double>();
   v.covariance = alignment::Matrix6::Identity() * std::max(0.01, v.fitness_m2);
   v.covariance.bottomRightCorner<3, 3>() *= 0.1;
@@ -162,6 +214,11 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   if (!(v.overlap >= params_.min_overlap)) {
     v.reason = "wall overlap " + std::to_string(v.overlap) + " below " +
                std::to_string(params_.min_overlap);
+    return v;
+  }
+  if (!(v.free_space_violation <= params_.max_free_space_violation)) {
+    v.reason = "free-space violation " + std::to_string(v.free_space_violation) + " above " +
+               std::to_string(params_.max_free_space_violation);
     return v;
   }
   v.accepted = true;

@@ -30,16 +30,20 @@ struct MatcherParams {
   /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
   double own_loop_gate_m_per_m = 0.1;
   double own_loop_gate_rad_per_m = 0.01;
-  /// Verification acceptance: keypoints agreeing on the RANSAC transform, and GICP fitness. Six
-  /// lets through aliased places too; inter-robot closures reach the map only through the
-  /// Backend's team-frame EM and own ones through the odometry gate, which sort those out.
-  int min_inliers = 6;
+  /// Verification acceptance: keypoints agreeing on the RANSAC transform (few: the wall overlap
+  /// and free-space tests below judge the alignment), and GICP fitness.
+  int min_inliers = 5;
   double max_fitness_m2 = 0.1;
   /// ... and the share of wall points each scan explains of the other within
   /// overlap_distance_m (scan_verifier.h). Tight: a place one pillar away differs by the
   /// pillars' size and angle jitter (decimetres), a true revisit only by sensor noise.
   double min_overlap = 0.6;
   double overlap_distance_m = 0.1;
+  /// ... and the share of wall points lying where the other scan saw free space, farther than
+  /// free_space_margin_m (scan_verifier.h): what tells a pillar of a slightly different size
+  /// or a rubble box apart from a viewpoint change.
+  double max_free_space_violation = 0.01;
+  double free_space_margin_m = 0.15;
 
   std::vector<std::string> validate() const;
 };

@@ -36,6 +36,14 @@ struct VerificationParams {
   double min_overlap = 0.6;
   double overlap_distance_m = 0.1;
   double overlap_range_m = 30.0;
+  /// ... and when at most this share of either scan's wall points (within overlap_range_m)
+  /// lie where the other scan saw through them: in the other's range image (this resolution)
+  /// every return around that direction is farther by more than free_space_margin_m. Points
+  /// the other could not see count for neither side, so a change of viewpoint passes; a pillar
+  /// face or rubble box the other place lacks, or a wall decimetres off, does not.
+  double max_free_space_violation = 0.01;
+  double free_space_margin_m = 0.15;
+  double range_image_resolution_deg = 1.0;
   /// Points whose unit normal has |z| below this (sensor frame, level sensor) are walls.
   double wall_normal_z = 0.5;
 
@@ -55,6 +63,8 @@ struct Verification {
   double fitness_m2 = 0.0;
   /// The wall overlap, the smaller of the two directions (VerificationParams::min_overlap).
   double overlap = 0.0;
+  /// The larger of the two directions' free-space violation shares.
+  double free_space_violation = 0.0;
   std::string reason;
 };
 
@@ -90,6 +100,12 @@ class ScanVerifier {
   double wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
                      const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
                      const Eigen::Matrix4f& from_to) const;
+
+  /// Share of `to_walls`, moved by `from_to`, within overlap_range_m that `from_cloud`'s range
+  /// image shows as free space (VerificationParams::max_free_space_violation).
+  double freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
+                            const pcl::PointCloud<pcl::PointXYZ>& from_cloud,
+                            const Eigen::Matrix4f& from_to) const;
 
   VerificationParams params_;
 };
