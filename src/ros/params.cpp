@@ -132,7 +132,19 @@ void load(ParamReader& reader, MapperSettings& config) {
   auto& p = config.core;
   reader.read("resolution_m", p.resolution_m);
   reader.read("max_insert_range_m", p.max_insert_range_m);
+  reader.read("occupancy_clamp_min", p.occupancy_clamp_min);
+  reader.read("occupancy_clamp_max", p.occupancy_clamp_max);
+  reader.read("csqmi_sigma_m", p.csqmi_sigma_m);
+  reader.read("simulated_azimuth_step_deg", p.simulated_azimuth_step_deg);
+  reader.read("scan_beam_step", p.scan_beam_step);
+  reader.read("rebuild_shift_m", p.rebuild_shift_m);
+  reader.read("rebuild_rotation_deg", p.rebuild_rotation_deg);
+  reader.read("entropy_box_half_width_m", p.entropy_box_half_width_m);
+  reader.read("entropy_box_min_z_m", p.entropy_box_min_z_m);
+  reader.read("entropy_box_max_z_m", p.entropy_box_max_z_m);
   reader.read("publish_period_s", p.publish_period_s);
+  reader.read("map_path", config.map_path);
+  reader.read("save_on_shutdown", config.save_on_shutdown);
   reader.addErrors(p.validate());
 }
 

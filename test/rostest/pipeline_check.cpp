@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+
+#include <octomap/OcTree.h>
 
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -14,6 +17,7 @@
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
@@ -21,6 +25,7 @@
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/KeyframeFeatures.h"
 #include "ccir_mapping/LinkStats.h"
+#include "ccir_mapping/MapStats.h"
 #include "wait_for.h"
 
 namespace ccir_mapping {
@@ -225,6 +230,70 @@ TEST_F(Pipeline, BridgeReportsItsPeerLink) {
   EXPECT_EQ(s().link_stats->peer, s().peer);
   EXPECT_FALSE(s().link_stats->connected);
   EXPECT_DOUBLE_EQ(s().link_stats->budget_bytes_per_s, 150000.0);
+}
+
+TEST_F(Pipeline, MapperMapsTheKeyframesAndSavesTheMap) {
+  MapStats::ConstPtr stats;
+  sensor_msgs::PointCloud2::ConstPtr map_cloud;
+  auto stats_sub = s().nh.subscribe<MapStats>("map_stats", 10, [&](const auto& m) { stats = m; });
+  // The occupied voxels are published only while someone listens.
+  auto cloud_sub = s().nh.subscribe<sensor_msgs::PointCloud2>(
+      "map_cloud", 1, [&](const auto& m) { map_cloud = m; });
+  ASSERT_TRUE(waitFor([&] { return stats && stats->keyframes == 10 && map_cloud; }, 20.0))
+      << "no map statistics for 10 keyframes, or no map cloud";
+  EXPECT_EQ(stats->robot, s().robot);
+  EXPECT_EQ(stats->header.frame_id, s().robot + "/map");
+  EXPECT_DOUBLE_EQ(stats->resolution_m, 0.1);
+  // Box of 200 x 200 x 15 m at 0.1 m (voxel centres on both faces): 1 bit per unknown voxel.
+  const double box_voxels = 2001.0 * 2001.0 * 151.0;
+  // Every known voxel lost some entropy (a single miss takes 0.03 bits, a hit 0.12), none more
+  // than its bit.
+  const double known_voxels = stats->known_volume_m3 / 1e-3;
+  EXPECT_GT(known_voxels, 10000.0);
+  EXPECT_GT(box_voxels - stats->entropy_bits, 0.02 * known_voxels);
+  EXPECT_LT(box_voxels - stats->entropy_bits, known_voxels);
+  EXPECT_EQ(stats->peer_scans, 0u);
+  // The 5 m circles seen from x = 0 .. 9 m at 0.5 m height: occupied voxels there, in the map
+  // frame.
+  EXPECT_EQ(map_cloud->header.frame_id, s().robot + "/map");
+  ASSERT_GT(map_cloud->width * map_cloud->height, 100u);
+  sensor_msgs::PointCloud2ConstIterator<float> p(*map_cloud, "x");
+  int near_circle = 0;
+  for (; p != p.end(); ++p) {
+    for (int k = 0; k < 10; ++k) {
+      if (std::abs(std::hypot(p[0] - k, p[1]) - 5.0) < 0.2 && std::abs(p[2] - 0.5) < 0.2) {
+        ++near_circle;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(near_circle, 0.9 * map_cloud->width * map_cloud->height);
+
+  // A teammate's scan with a broken pose is dropped with a warning; the map is unchanged.
+  auto broken = boost::make_shared<Keyframe>();
+  broken->robot = s().peer;
+  broken->odom_pose.position.x = std::numeric_limits<double>::quiet_NaN();
+  broken->cloud = State::cloud(s().peer + "/velodyne", s().stamp(0));
+  ros::Publisher inbox = s().nh.advertise<Keyframe>("inbox/scans", 10);
+  // Until the warning shows (the first publications may precede the connection).
+  int polls = 0;
+  EXPECT_TRUE(waitFor(
+      [&] {
+        if (polls++ % 20 == 0) inbox.publish(broken);
+        return s().logged(rosgraph_msgs::Log::WARN, "dropping teammate scan");
+      },
+      10.0));
+
+  // ~save_map writes a binary OctoMap that reads back.
+  std_srvs::Trigger save;
+  ASSERT_TRUE(ros::service::waitForService("mapper/save_map", 10000));
+  ASSERT_TRUE(ros::service::call("mapper/save_map", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  const std::string path = save.response.message.substr(save.response.message.find('/'));
+  octomap::OcTree saved(0.1);
+  ASSERT_TRUE(saved.readBinary(path)) << path;
+  EXPECT_GT(saved.getNumLeafNodes(), 100u);
+  std::remove(path.c_str());
 }
 
 TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {

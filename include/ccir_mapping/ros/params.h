@@ -45,6 +45,9 @@ struct BackendSettings {
 
 struct MapperSettings {
   RobotFrames frames;
+  /// Where ~save_map and shutdown write the map (.bt); empty: $ROS_HOME/<robot>_map.bt.
+  std::string map_path;
+  bool save_on_shutdown = true;
   core::information::MapperParams core;
 };
 

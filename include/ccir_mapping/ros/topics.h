@@ -14,6 +14,8 @@ constexpr char kCorrespondences[] = "correspondences";
 constexpr char kLoopClosures[] = "loop_closures";
 constexpr char kTrajectory[] = "trajectory";
 constexpr char kTeamTransforms[] = "team_transforms";
+constexpr char kMapCloud[] = "map_cloud";
+constexpr char kMapStats[] = "map_stats";
 constexpr char kBrokerStats[] = "broker_stats";
 constexpr char kLinkStats[] = "link_stats";
 

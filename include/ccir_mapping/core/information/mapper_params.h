@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace ccir_mapping::core::information {
 
 struct MapperParams {
@@ -11,10 +13,34 @@ struct MapperParams {
   double resolution_m = 0.1;
   /// Beams are integrated up to this range (longer ones clear free space only up to it).
   double max_insert_range_m = 30.0;
+  /// Occupancy probabilities are clamped to [occupancy_clamp_min, occupancy_clamp_max] (OctoMap's
+  /// own 0.12 / 0.97 leave a mapped free corridor so uncertain that a beam through it still
+  /// looks informative; these take ~11 misses or ~6 hits to reach).
+  double occupancy_clamp_min = 0.01;
+  double occupancy_clamp_max = 0.99;
+  /// Range noise of the beam model in the mutual information (CSQMI).
+  double csqmi_sigma_m = 0.03;
+  /// Simulated VLP-16 measurements (the information of an offered scan): 16 rings, one beam
+  /// every this many degrees of azimuth.
+  double simulated_azimuth_step_deg = 3.0;
+  /// Mutual information of a real scan: one beam per this many of its points.
+  int scan_beam_step = 10;
+  /// The map is rebuilt when an inserted keyframe's optimised pose, or a team transform, has
+  /// moved more than this since it was inserted.
+  double rebuild_shift_m = 0.2;
+  double rebuild_rotation_deg = 1.0;
+  /// Map entropy and known volume are reported over this box around the map origin (fixed, so
+  /// the numbers compare over time).
+  double entropy_box_half_width_m = 100.0;
+  double entropy_box_min_z_m = -5.0;
+  double entropy_box_max_z_m = 10.0;
   /// Period of map statistics and visualisation output.
   double publish_period_s = 2.0;
 
   std::vector<std::string> validate() const;
+  /// The entropy box.
+  Eigen::Vector3d entropyBoxMin() const;
+  Eigen::Vector3d entropyBoxMax() const;
 };
 
 }  // namespace ccir_mapping::core::information

@@ -1,0 +1,83 @@
+// What a robot's occupancy map is made of, and where each part goes: its own keyframes at their
+// optimised poses, teammates' scans placed with the team transform once it is known. The map
+// follows the optimised poses by rebuilding: when an inserted keyframe's optimised pose (or a
+// team transform) has moved more than the rebuild thresholds, rebuildDue() turns true and the
+// caller builds a fresh OccupancyMap from placeAll() (OctoMap cannot move what it integrated).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/information/mapper_params.h"
+
+namespace ccir_mapping::core::information {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+/// A scan and where its sensor is in the map frame.
+struct PlacedScan {
+  std::shared_ptr<const Cloud> cloud;  // sensor frame
+  Pose3 map_from_sensor = Pose3::Identity();
+};
+
+class KeyframeMap {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  explicit KeyframeMap(const MapperParams& params);
+
+  /// An own keyframe with its odometry pose: placed with the latest optimised correction.
+  PlacedScan addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose);
+  /// A teammate's scan with its pose in the teammate's frame: placed now if the teammate's
+  /// frame is known (returned), else kept until it is.
+  std::vector<PlacedScan> addPeer(const std::string& robot, std::shared_ptr<const Cloud> cloud,
+                                  const Pose3& peer_pose);
+  /// The teammate's frame in the map frame: returns its waiting scans, now placed. A known
+  /// transform that moves beyond the thresholds makes a rebuild due.
+  std::vector<PlacedScan> setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
+  /// Optimised sensor poses of own keyframes, by stamp (the Backend's trajectory).
+  void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
+
+  bool rebuildDue() const { return rebuild_due_; }
+  /// Every placeable scan at the current poses; clears rebuildDue().
+  std::vector<PlacedScan> placeAll();
+
+  std::size_t ownKeyframes() const { return own_.size(); }
+  std::size_t peerScans() const;
+  std::size_t pendingPeerScans() const;
+
+ private:
+  struct Own {
+    std::shared_ptr<const Cloud> cloud;
+    Pose3 odom_pose;
+    /// Best known pose, and the pose it was inserted with.
+    Pose3 map_pose;
+    Pose3 inserted_pose;
+  };
+  struct Peer {
+    std::shared_ptr<const Cloud> cloud;
+    Pose3 peer_pose;
+  };
+  struct Teammate {
+    std::vector<Peer> scans;
+    bool known = false;
+    Pose3 map_from_peer = Pose3::Identity();
+    Pose3 inserted_transform = Pose3::Identity();
+  };
+
+  bool moved(const Pose3& a, const Pose3& b) const;
+
+  MapperParams params_;
+  std::map<Stamp, Own> own_;
+  std::map<std::string, Teammate> teammates_;
+  /// map_from_odom of the latest optimised keyframe: places new keyframes.
+  Pose3 correction_ = Pose3::Identity();
+  bool rebuild_due_ = false;
+};
+
+}  // namespace ccir_mapping::core::information

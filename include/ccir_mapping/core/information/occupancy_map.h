@@ -1,0 +1,95 @@
+// One robot's occupancy map (OctoMap) and the information questions CCIR asks of it: map entropy
+// over a fixed box, known volume, the entropy a scan would remove (realised, map unchanged) and
+// the Cauchy-Schwarz mutual information of a scan's beams (thesis section 3.2.3).
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <octomap/OcTree.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <Eigen/Core>
+
+#include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/information/csqmi.h"
+#include "ccir_mapping/core/information/mapper_params.h"
+
+namespace ccir_mapping::core::information {
+
+/// Axis-aligned box in the map frame.
+struct Box {
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+};
+
+/// The voxels one scan updates, as OctoMap's computeUpdate finds them (a voxel holding an
+/// endpoint is occupied, even if another beam crossed it). Measuring and inserting use the same
+/// keys, so the measured entropy drop is exactly what inserting removes.
+struct ScanUpdate {
+  std::vector<octomap::OcTreeKey> free;
+  std::vector<octomap::OcTreeKey> occupied;
+  /// Points dropped for being non-finite.
+  int dropped_points = 0;
+};
+
+/// A voxel and the entropy (bits) one scan removes from it.
+using VoxelGain = std::pair<octomap::OcTreeKey, float>;
+
+class OccupancyMap {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  explicit OccupancyMap(const MapperParams& params);
+
+  /// `points` (map frame) seen from `origin`; beams longer than max_insert_range_m clear free
+  /// space up to that range only. Non-finite points are skipped and counted.
+  ScanUpdate computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
+                           const Eigen::Vector3d& origin) const;
+  /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped.
+  void insert(const ScanUpdate& update);
+
+  /// Entropy, in bits, inserting `update` would remove (sum over its voxels of h(before) -
+  /// h(after)); may be negative where a scan contradicts the map. The map is not changed.
+  double entropyReduction(const ScanUpdate& update) const;
+  /// The voxels whose entropy the update lowers, with the drop.
+  std::vector<VoxelGain> voxelGains(const ScanUpdate& update) const;
+
+  /// Sum of voxel entropies in the box, in bits; an unknown voxel has 1 bit.
+  double entropyBits(const Box& box) const;
+  /// Volume of the box's known voxels, m^3.
+  double knownVolumeM3(const Box& box) const;
+
+  /// CSQMI (nats) of beams from `origin` along each of `directions` (map frame, any length) up
+  /// to max_insert_range_m, summed: what a measurement there could tell about the map.
+  double beamsCsqmi(const Eigen::Vector3d& origin,
+                    const std::vector<Eigen::Vector3d>& directions) const;
+  /// Mutual information of a scan before inserting it: beams towards every scan_beam_step-th
+  /// point. About 0 where the map already knows what the scan sees.
+  double scanCsqmi(const pcl::PointCloud<pcl::PointXYZ>& points,
+                   const Eigen::Vector3d& origin) const;
+  /// Mutual information of a simulated VLP-16 measurement at `sensor_pose` (map frame): 16
+  /// rings from -15 to +15 degrees, a beam every simulated_azimuth_step_deg.
+  double simulatedCsqmi(const Pose3& sensor_pose) const;
+  /// The cells one beam crosses (for beamsCsqmi and tests).
+  BeamCells beamCells(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+
+  /// Occupancy probability of the voxel holding `key` (0.5 if unknown).
+  double occupancy(const octomap::OcTreeKey& key) const;
+  const octomap::OcTree& tree() const { return tree_; }
+  const MapperParams& params() const { return params_; }
+  /// Writes the map as a binary OctoMap (.bt); false if the file cannot be written.
+  bool save(const std::string& path) const;
+
+ private:
+  /// Log-odds of the voxel after one hit or miss, as OccupancyOcTreeBase::updateNode does it.
+  float updatedLogOdds(float log_odds, bool hit) const;
+
+  MapperParams params_;
+  octomap::OcTree tree_;
+};
+
+/// Binary entropy, in bits, of an occupancy probability.
+double occupancyEntropyBits(double p);
+
+}  // namespace ccir_mapping::core::information

@@ -1,0 +1,226 @@
+#include "ccir_mapping/core/information/occupancy_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::information {
+namespace {
+
+octomap::point3d toOctomap(const Eigen::Vector3d& v) {
+  return {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
+}
+
+double probability(float log_odds) { return 1.0 - 1.0 / (1.0 + std::exp(log_odds)); }
+
+}  // namespace
+
+double occupancyEntropyBits(double p) {
+  if (p <= 0.0 || p >= 1.0) return 0.0;
+  return -p * std::log2(p) - (1 - p) * std::log2(1 - p);
+}
+
+OccupancyMap::OccupancyMap(const MapperParams& params)
+    : params_(validated(params)), tree_(params.resolution_m) {
+  tree_.setClampingThresMin(params_.occupancy_clamp_min);
+  tree_.setClampingThresMax(params_.occupancy_clamp_max);
+}
+
+ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
+                                       const Eigen::Vector3d& origin) const {
+  if (!origin.allFinite()) throw std::invalid_argument("computeUpdate: non-finite sensor origin");
+  ScanUpdate update;
+  octomap::Pointcloud cloud;
+  cloud.reserve(points.size());
+  for (const auto& p : points) {
+    if (p.getVector3fMap().allFinite()) {
+      cloud.push_back(p.x, p.y, p.z);
+    } else {
+      ++update.dropped_points;
+    }
+  }
+  octomap::KeySet free_cells;
+  octomap::KeySet occupied_cells;
+  // const_cast: computeUpdate only reads the tree but is not declared const.
+  const_cast<octomap::OcTree&>(tree_).computeUpdate(cloud, toOctomap(origin), free_cells,
+                                                    occupied_cells, params_.max_insert_range_m);
+  update.free.assign(free_cells.begin(), free_cells.end());
+  update.occupied.assign(occupied_cells.begin(), occupied_cells.end());
+  // KeySet order depends on hashing: sort, so results do not depend on the standard library.
+  auto less = [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
+    return std::lexicographical_compare(&a[0], &a[0] + 3, &b[0], &b[0] + 3);
+  };
+  std::sort(update.free.begin(), update.free.end(), less);
+  std::sort(update.occupied.begin(), update.occupied.end(), less);
+  return update;
+}
+
+void OccupancyMap::insert(const ScanUpdate& update) {
+  for (const auto& key : update.free) tree_.updateNode(key, false, true);
+  for (const auto& key : update.occupied) tree_.updateNode(key, true, true);
+  tree_.updateInnerOccupancy();
+}
+
+float OccupancyMap::updatedLogOdds(float log_odds, bool hit) const {
+  const float updated = log_odds + (hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
+  return std::clamp(updated, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
+}
+
+double OccupancyMap::occupancy(const octomap::OcTreeKey& key) const {
+  const octomap::OcTreeNode* node = tree_.search(key);
+  return node ? node->getOccupancy() : 0.5;
+}
+
+std::vector<VoxelGain> OccupancyMap::voxelGains(const ScanUpdate& update) const {
+  std::vector<VoxelGain> gains;
+  gains.reserve(update.free.size() + update.occupied.size());
+  auto add = [&](const octomap::OcTreeKey& key, bool hit) {
+    const octomap::OcTreeNode* node = tree_.search(key);
+    const float before = node ? node->getLogOdds() : 0.0F;
+    const double drop = occupancyEntropyBits(probability(before)) -
+                        occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
+    if (drop > 0) gains.emplace_back(key, static_cast<float>(drop));
+  };
+  for (const auto& key : update.free) add(key, false);
+  for (const auto& key : update.occupied) add(key, true);
+  return gains;
+}
+
+double OccupancyMap::entropyReduction(const ScanUpdate& update) const {
+  double total = 0.0;
+  auto add = [&](const octomap::OcTreeKey& key, bool hit) {
+    const octomap::OcTreeNode* node = tree_.search(key);
+    const float before = node ? node->getLogOdds() : 0.0F;
+    total += occupancyEntropyBits(probability(before)) -
+             occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
+  };
+  for (const auto& key : update.free) add(key, false);
+  for (const auto& key : update.occupied) add(key, true);
+  return total;
+}
+
+namespace {
+
+/// Calls f(leaf, finest voxels of the leaf inside the box) for every known leaf in the box.
+template <class F>
+void forLeavesInBox(const octomap::OcTree& tree, const Box& box, F&& f) {
+  const double res = tree.getResolution();
+  octomap::OcTreeKey min_key;
+  octomap::OcTreeKey max_key;
+  if (!tree.coordToKeyChecked(toOctomap(box.min), min_key) ||
+      !tree.coordToKeyChecked(toOctomap(box.max), max_key)) {
+    return;
+  }
+  Eigen::Vector3d lo;
+  Eigen::Vector3d hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = tree.keyToCoord(min_key[a]) - res / 2;
+    hi[a] = tree.keyToCoord(max_key[a]) + res / 2;
+  }
+  for (auto it = tree.begin_leafs_bbx(min_key, max_key), end = tree.end_leafs_bbx(); it != end;
+       ++it) {
+    // A pruned leaf stands for 8^(16 - depth) finest voxels; count those inside the box.
+    const double half = it.getSize() / 2;
+    const octomap::point3d c = it.getCoordinate();
+    double voxels = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double overlap =
+          std::min<double>(hi[a], c(a) + half) - std::max<double>(lo[a], c(a) - half);
+      voxels *= std::max(0.0, std::round(overlap / res));
+    }
+    if (voxels > 0) f(*it, voxels);
+  }
+}
+
+double boxVoxels(const octomap::OcTree& tree, const Box& box) {
+  octomap::OcTreeKey min_key;
+  octomap::OcTreeKey max_key;
+  if (!tree.coordToKeyChecked(toOctomap(box.min), min_key) ||
+      !tree.coordToKeyChecked(toOctomap(box.max), max_key)) {
+    return 0.0;
+  }
+  double voxels = 1.0;
+  for (int a = 0; a < 3; ++a) voxels *= std::max(0, max_key[a] - min_key[a] + 1);
+  return voxels;
+}
+
+}  // namespace
+
+double OccupancyMap::entropyBits(const Box& box) const {
+  double known = 0.0;
+  double bits = 0.0;
+  forLeavesInBox(tree_, box, [&](const octomap::OcTreeNode& leaf, double voxels) {
+    known += voxels;
+    bits += voxels * occupancyEntropyBits(leaf.getOccupancy());
+  });
+  return bits + (boxVoxels(tree_, box) - known);
+}
+
+double OccupancyMap::knownVolumeM3(const Box& box) const {
+  double known = 0.0;
+  forLeavesInBox(tree_, box, [&](const octomap::OcTreeNode&, double voxels) { known += voxels; });
+  return known * std::pow(params_.resolution_m, 3);
+}
+
+BeamCells OccupancyMap::beamCells(const Eigen::Vector3d& origin,
+                                  const Eigen::Vector3d& direction) const {
+  BeamCells beam;
+  beam.max_range_m = params_.max_insert_range_m;
+  const Eigen::Vector3d end = origin + direction.normalized() * params_.max_insert_range_m;
+  octomap::KeyRay ray;
+  if (!tree_.computeRayKeys(toOctomap(origin), toOctomap(end), ray)) return beam;
+  // Later cells matter only while the beam may still be unobstructed.
+  constexpr double kNegligible = 1e-4;
+  double all_free = 1.0;
+  for (const auto& key : ray) {
+    const double o = occupancy(key);
+    const octomap::point3d c = tree_.keyToCoord(key);
+    beam.occupancy.push_back(o);
+    beam.range_m.push_back((Eigen::Vector3d(c.x(), c.y(), c.z()) - origin).norm());
+    all_free *= 1.0 - o;
+    if (all_free < kNegligible) break;
+  }
+  return beam;
+}
+
+double OccupancyMap::beamsCsqmi(const Eigen::Vector3d& origin,
+                                const std::vector<Eigen::Vector3d>& directions) const {
+  double total = 0.0;
+  for (const auto& d : directions) total += beamCsqmi(beamCells(origin, d), params_.csqmi_sigma_m);
+  return total;
+}
+
+double OccupancyMap::scanCsqmi(const pcl::PointCloud<pcl::PointXYZ>& points,
+                               const Eigen::Vector3d& origin) const {
+  std::vector<Eigen::Vector3d> directions;
+  for (std::size_t i = 0; i < points.size();
+       i += static_cast<std::size_t>(params_.scan_beam_step)) {
+    const Eigen::Vector3d d = points[i].getVector3fMap().cast<double>() - origin;
+    if (d.allFinite() && d.norm() > 1e-6) directions.push_back(d);
+  }
+  return beamsCsqmi(origin, directions);
+}
+
+double OccupancyMap::simulatedCsqmi(const Pose3& sensor_pose) const {
+  if (!sensor_pose.matrix().allFinite()) {
+    throw std::invalid_argument("simulatedCsqmi: non-finite sensor pose");
+  }
+  std::vector<Eigen::Vector3d> directions;
+  const double step = params_.simulated_azimuth_step_deg * M_PI / 180;
+  for (int ring = 0; ring < 16; ++ring) {
+    const double elevation = (-15.0 + 2.0 * ring) * M_PI / 180;
+    for (double azimuth = 0; azimuth < 2 * M_PI - 1e-9; azimuth += step) {
+      directions.push_back(sensor_pose.linear() *
+                           Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                           std::cos(elevation) * std::sin(azimuth),
+                                           std::sin(elevation)));
+    }
+  }
+  return beamsCsqmi(sensor_pose.translation(), directions);
+}
+
+bool OccupancyMap::save(const std::string& path) const { return tree_.writeBinaryConst(path); }
+
+}  // namespace ccir_mapping::core::information

@@ -1,0 +1,113 @@
+#include "ccir_mapping/core/information/scan_ranker.h"
+
+#include <algorithm>
+#include <queue>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace ccir_mapping::core::information {
+
+/// The best gain any chosen scan brings each voxel.
+class ScanRanker::Covered {
+ public:
+  float best(const octomap::OcTreeKey& key) const {
+    const auto it = best_.find(key);
+    return it == best_.end() ? 0.0F : it->second;
+  }
+  void add(const std::vector<VoxelGain>& gains) {
+    for (const auto& [key, gain] : gains) {
+      float& best = best_[key];
+      best = std::max(best, gain);
+    }
+  }
+
+ private:
+  std::unordered_map<octomap::OcTreeKey, float, octomap::OcTreeKey::KeyHash> best_;
+};
+
+std::vector<VoxelGain> coarsened(const std::vector<VoxelGain>& gains, int levels) {
+  std::unordered_map<octomap::OcTreeKey, float, octomap::OcTreeKey::KeyHash> blocks;
+  for (const auto& [key, gain] : gains) {
+    const octomap::OcTreeKey block(static_cast<octomap::key_type>(key[0] >> levels),
+                                   static_cast<octomap::key_type>(key[1] >> levels),
+                                   static_cast<octomap::key_type>(key[2] >> levels));
+    blocks[block] += gain;
+  }
+  std::vector<VoxelGain> result(blocks.begin(), blocks.end());
+  // Hash order is the library's: sort, so sums and ties do not depend on it.
+  std::sort(result.begin(), result.end(), [](const VoxelGain& a, const VoxelGain& b) {
+    return std::lexicographical_compare(&a.first[0], &a.first[0] + 3, &b.first[0], &b.first[0] + 3);
+  });
+  return result;
+}
+
+ScanRanker::ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus)
+    : gains_(std::move(gains)), bonus_(std::move(bonus)) {
+  if (bonus_.empty()) bonus_.assign(gains_.size(), 0.0);
+  if (bonus_.size() != gains_.size()) {
+    throw std::invalid_argument("ScanRanker: one bonus per scan, or none");
+  }
+  // The same sums marginalGain() makes with nothing covered (g - 0 == g), so rankings agree.
+  for (std::size_t i = 0; i < gains_.size(); ++i) {
+    double gain = bonus_[i];
+    for (const auto& voxel : gains_[i]) gain += std::max(0.0F, voxel.second);
+    alone_.push_back(gain);
+  }
+}
+
+double ScanRanker::marginalGain(std::size_t scan, const Covered& covered) const {
+  ++evaluations_;
+  double gain = bonus_[scan];
+  for (const auto& [key, g] : gains_[scan]) gain += std::max(0.0F, g - covered.best(key));
+  return gain;
+}
+
+std::vector<RankedScan> ScanRanker::rankNaive(std::size_t n) const {
+  evaluations_ = 0;
+  std::vector<RankedScan> ranked;
+  std::vector<bool> chosen(gains_.size(), false);
+  Covered covered;
+  while (ranked.size() < std::min(n, gains_.size())) {
+    RankedScan best{gains_.size(), -1.0};
+    for (std::size_t i = 0; i < gains_.size(); ++i) {
+      if (chosen[i]) continue;
+      const double gain = marginalGain(i, covered);
+      if (best.index == gains_.size() || gain > best.gain) best = {i, gain};
+    }
+    chosen[best.index] = true;
+    covered.add(gains_[best.index]);
+    ranked.push_back(best);
+  }
+  return ranked;
+}
+
+std::vector<RankedScan> ScanRanker::rankLazy(std::size_t n) const {
+  evaluations_ = 0;
+  // (gain, index, round it was evaluated in); the best is the largest gain, then lowest index.
+  struct Entry {
+    double gain;
+    std::size_t index;
+    std::size_t round;
+  };
+  auto worse = [](const Entry& a, const Entry& b) {
+    return a.gain < b.gain || (a.gain == b.gain && a.index > b.index);
+  };
+  std::priority_queue<Entry, std::vector<Entry>, decltype(worse)> queue(worse);
+  Covered covered;
+  for (std::size_t i = 0; i < gains_.size(); ++i) queue.push({alone_[i], i, 0});
+  std::vector<RankedScan> ranked;
+  while (ranked.size() < n && !queue.empty()) {
+    Entry top = queue.top();
+    queue.pop();
+    if (top.round == ranked.size()) {
+      // Fresh: every other gain is at most its stale value (submodularity), which is below.
+      ranked.push_back({top.index, top.gain});
+      covered.add(gains_[top.index]);
+      continue;
+    }
+    queue.push({marginalGain(top.index, covered), top.index, ranked.size()});
+  }
+  return ranked;
+}
+
+}  // namespace ccir_mapping::core::information

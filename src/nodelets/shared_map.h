@@ -1,0 +1,61 @@
+// A robot's occupancy map shared between the nodelets of its manager: the Mapper writes it, the
+// Broker asks it information questions in-process (no copy over a topic). Readers take a shared
+// lock for the duration of a query; the Mapper swaps in a rebuilt map under the exclusive lock.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <string>
+
+#include "ccir_mapping/core/information/occupancy_map.h"
+
+namespace ccir_mapping {
+
+class SharedMap {
+ public:
+  explicit SharedMap(std::unique_ptr<core::information::OccupancyMap> map) : map_(std::move(map)) {}
+
+  template <class F>
+  auto read(F&& f) const {
+    std::shared_lock lock(mutex_);
+    return f(static_cast<const core::information::OccupancyMap&>(*map_));
+  }
+  template <class F>
+  auto write(F&& f) {
+    std::unique_lock lock(mutex_);
+    return f(*map_);
+  }
+  void replace(std::unique_ptr<core::information::OccupancyMap> map) {
+    std::unique_lock lock(mutex_);
+    map_ = std::move(map);
+  }
+
+  /// The maps of this process by robot name (one Mapper per robot and manager).
+  static void registerMap(const std::string& robot, const std::shared_ptr<SharedMap>& map) {
+    std::lock_guard lock(registryMutex());
+    registry()[robot] = map;
+  }
+  /// Null while no Mapper of that robot runs in this process.
+  static std::shared_ptr<SharedMap> find(const std::string& robot) {
+    std::lock_guard lock(registryMutex());
+    const auto it = registry().find(robot);
+    return it == registry().end() ? nullptr : it->second.lock();
+  }
+
+ private:
+  static std::map<std::string, std::weak_ptr<SharedMap>>& registry() {
+    static std::map<std::string, std::weak_ptr<SharedMap>> maps;
+    return maps;
+  }
+  static std::mutex& registryMutex() {
+    static std::mutex mutex;
+    return mutex;
+  }
+
+  mutable std::shared_mutex mutex_;
+  std::unique_ptr<core::information::OccupancyMap> map_;
+};
+
+}  // namespace ccir_mapping

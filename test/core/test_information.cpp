@@ -1,0 +1,317 @@
+// The occupancy map's information (algorithms.md section 5.4): CSQMI against brute-force
+// enumeration, its bounds; map entropy and known volume; the realised entropy drop of a scan;
+// mutual information of mapped and new places; lazy greedy ranking equals naive greedy.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "ccir_mapping/core/information/csqmi.h"
+#include "ccir_mapping/core/information/keyframe_map.h"
+#include "ccir_mapping/core/information/occupancy_map.h"
+#include "ccir_mapping/core/information/scan_ranker.h"
+
+namespace ccir_mapping::core::information {
+namespace {
+
+double gaussian(double x, double variance) {
+  return std::exp(-0.5 * x * x / variance) / std::sqrt(2.0 * M_PI * variance);
+}
+
+/// CSQMI by enumerating all 2^C maps: each map's reading is its first occupied cell (or the
+/// maximum range), and the three integrals of the definition are Gaussian products in z.
+double bruteForceCsqmi(const BeamCells& beam, double sigma) {
+  const std::size_t cells = beam.occupancy.size();
+  std::vector<double> p_map;
+  std::vector<double> reading;
+  for (unsigned m = 0; m < (1U << cells); ++m) {
+    double p = 1.0;
+    double r = beam.max_range_m;
+    bool hit = false;
+    for (std::size_t i = 0; i < cells; ++i) {
+      const bool occupied = (m >> i) & 1U;
+      p *= occupied ? beam.occupancy[i] : 1 - beam.occupancy[i];
+      if (occupied && !hit) {
+        r = beam.range_m[i];
+        hit = true;
+      }
+    }
+    p_map.push_back(p);
+    reading.push_back(r);
+  }
+  const double v = 2 * sigma * sigma;
+  double joint = 0;    // integral of p(m, z)^2
+  double sum_p2 = 0;   // sum of p(m)^2
+  double pz2 = 0;      // integral of p(z)^2
+  double product = 0;  // integral of p(m) p(z) p(m, z)
+  for (std::size_t a = 0; a < p_map.size(); ++a) {
+    joint += p_map[a] * p_map[a] * gaussian(0, v);
+    sum_p2 += p_map[a] * p_map[a];
+    double mixture = 0;
+    for (std::size_t b = 0; b < p_map.size(); ++b) {
+      pz2 += p_map[a] * p_map[b] * gaussian(reading[a] - reading[b], v);
+      mixture += p_map[b] * gaussian(reading[a] - reading[b], v);
+    }
+    product += p_map[a] * p_map[a] * mixture;
+  }
+  return std::log(joint * sum_p2 * pz2 / (product * product));
+}
+
+BeamCells randomBeam(std::mt19937& rng, std::size_t cells, double cell_m) {
+  std::uniform_real_distribution<double> u(0.02, 0.98);
+  BeamCells beam;
+  for (std::size_t i = 0; i < cells; ++i) {
+    beam.occupancy.push_back(u(rng));
+    beam.range_m.push_back((i + 0.5) * cell_m);
+  }
+  beam.max_range_m = cells * cell_m + cell_m;
+  return beam;
+}
+
+TEST(Csqmi, EqualsBruteForceEnumeration) {
+  std::mt19937 rng(3);
+  for (const double sigma : {0.03, 0.1, 0.2}) {
+    for (std::size_t cells = 1; cells <= 9; ++cells) {
+      const BeamCells beam = randomBeam(rng, cells, 0.1);
+      const double expected = bruteForceCsqmi(beam, sigma);
+      EXPECT_NEAR(beamCsqmi(beam, sigma), expected, 1e-6 * std::max(1.0, expected))
+          << cells << " cells, sigma " << sigma;
+    }
+  }
+}
+
+TEST(Csqmi, NonNegativeZeroWhenKnownLargestWhenUnknown) {
+  BeamCells known;
+  BeamCells unknown;
+  for (int i = 0; i < 20; ++i) {
+    known.occupancy.push_back(i == 12 ? 1 - 1e-6 : 1e-6);
+    unknown.occupancy.push_back(0.5);
+    known.range_m.push_back(0.1 * i + 0.05);
+  }
+  unknown.range_m = known.range_m;
+  known.max_range_m = unknown.max_range_m = 2.5;
+  EXPECT_NEAR(beamCsqmi(known, 0.03), 0.0, 1e-4);
+  EXPECT_GT(beamCsqmi(unknown, 0.03), 0.5);
+  // A known wall first hides everything behind it.
+  BeamCells walled = unknown;
+  walled.occupancy[0] = 1 - 1e-6;
+  EXPECT_NEAR(beamCsqmi(walled, 0.03), 0.0, 1e-4);
+  // Unknown cells behind a known-free corridor add information.
+  BeamCells corridor = unknown;
+  for (int i = 0; i < 10; ++i) corridor.occupancy[i] = 1e-6;
+  BeamCells shorter = corridor;
+  shorter.occupancy.resize(15);
+  shorter.range_m.resize(15);
+  EXPECT_GT(beamCsqmi(corridor, 0.03), beamCsqmi(shorter, 0.03));
+  EXPECT_GE(beamCsqmi(BeamCells{}, 0.03), 0.0);
+}
+
+/// Returns of a ring lidar at `origin` inside the box room [-5, 5] x [-4, 4] x [-1, 2] (its
+/// walls, floor and ceiling), 16 rings, one beam per degree.
+pcl::PointCloud<pcl::PointXYZ> roomScan(const Eigen::Vector3d& origin) {
+  const Eigen::Vector3d lo(-5, -4, -1);
+  const Eigen::Vector3d hi(5, 4, 2);
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  for (int ring = 0; ring < 16; ++ring) {
+    const double elevation = (-15.0 + 2.0 * ring) * M_PI / 180;
+    for (int a = 0; a < 360; ++a) {
+      const double azimuth = a * M_PI / 180;
+      const Eigen::Vector3d d(std::cos(elevation) * std::cos(azimuth),
+                              std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+      double t = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        if (d[k] > 1e-9) t = std::min(t, (hi[k] - origin[k]) / d[k]);
+        if (d[k] < -1e-9) t = std::min(t, (lo[k] - origin[k]) / d[k]);
+      }
+      const Eigen::Vector3d p = origin + t * d;
+      cloud.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    }
+  }
+  return cloud;
+}
+
+MapperParams params() {
+  MapperParams p;
+  p.resolution_m = 0.2;
+  p.max_insert_range_m = 20.0;
+  return p;
+}
+
+TEST(OccupancyMap, EmptyBoxHoldsOneBitPerVoxel) {
+  const OccupancyMap map(params());
+  const Box box{{-1.0, -1.0, -1.0}, {0.9, 0.9, 0.9}};  // 10 x 10 x 10 voxels of 0.2 m
+  EXPECT_DOUBLE_EQ(map.entropyBits(box), 1000.0);
+  EXPECT_DOUBLE_EQ(map.knownVolumeM3(box), 0.0);
+}
+
+TEST(OccupancyMap, InsertingAScanLowersEntropyByItsPerVoxelDrops) {
+  OccupancyMap map(params());
+  const Box box{{-6, -5, -2}, {6, 5, 3}};
+  const double empty = map.entropyBits(box);
+  const auto update = map.computeUpdate(roomScan({0, 0, 0}), {0, 0, 0});
+  ASSERT_GT(update.occupied.size(), 100U);
+  ASSERT_GT(update.free.size(), 1000U);
+  const double predicted = map.entropyReduction(update);
+  double gains = 0;
+  for (const auto& [key, gain] : map.voxelGains(update)) gains += gain;
+  EXPECT_NEAR(gains, predicted, 1e-6 * predicted) << "no voxel of an empty map gains entropy";
+  map.insert(update);
+  EXPECT_NEAR(empty - map.entropyBits(box), predicted, 1e-6 * predicted);
+  const double voxel_m3 = std::pow(0.2, 3);
+  EXPECT_NEAR(map.knownVolumeM3(box), (update.free.size() + update.occupied.size()) * voxel_m3,
+              1e-9);
+
+  // A second scan from elsewhere in the room: the prediction still equals the change.
+  const auto second = map.computeUpdate(roomScan({2, 1, 0.5}), {2, 1, 0.5});
+  const double before = map.entropyBits(box);
+  const double second_predicted = map.entropyReduction(second);
+  map.insert(second);
+  EXPECT_NEAR(before - map.entropyBits(box), second_predicted,
+              1e-6 * std::abs(second_predicted) + 1e-6);
+  // Pruning merges equal voxels, it does not change the entropy.
+  const double unpruned = map.entropyBits(box);
+  const_cast<octomap::OcTree&>(map.tree()).prune();
+  EXPECT_NEAR(map.entropyBits(box), unpruned, 1e-6 * unpruned);
+}
+
+TEST(OccupancyMap, MutualInformationIsAboutZeroWhereMappedAndLargeWhereNew) {
+  OccupancyMap map(params());
+  const auto scan = roomScan({0, 0, 0});
+  const OccupancyMap empty(params());
+  const double fresh = map.scanCsqmi(scan, {0, 0, 0});
+  for (int i = 0; i < 12; ++i) map.insert(map.computeUpdate(scan, {0, 0, 0}));  // clamped
+  const double mapped = map.scanCsqmi(scan, {0, 0, 0});
+  EXPECT_GT(fresh, 10.0);
+  EXPECT_LT(mapped, 0.05 * fresh) << "fresh " << fresh;
+  // The same for a simulated sensor: at the mapped pose, and far from anything mapped.
+  Pose3 there = Pose3::Identity();
+  Pose3 elsewhere = Pose3::Identity();
+  elsewhere.translation() << 60, 0, 0;
+  EXPECT_LT(map.simulatedCsqmi(there), 0.05 * map.simulatedCsqmi(elsewhere));
+  EXPECT_GT(map.simulatedCsqmi(elsewhere), 0.0);
+  // And realised: re-inserting what the map holds removes (almost) nothing.
+  EXPECT_LT(map.entropyReduction(map.computeUpdate(scan, {0, 0, 0})),
+            0.01 * empty.entropyReduction(empty.computeUpdate(scan, {0, 0, 0})));
+}
+
+TEST(OccupancyMap, BadInputIsDroppedAndCounted) {
+  OccupancyMap map(params());
+  auto scan = roomScan({0, 0, 0});
+  scan.push_back(pcl::PointXYZ(std::nanf(""), 0, 0));
+  scan.push_back(pcl::PointXYZ(0, std::numeric_limits<float>::infinity(), 0));
+  const auto update = map.computeUpdate(scan, {0, 0, 0});
+  EXPECT_EQ(update.dropped_points, 2);
+  EXPECT_FALSE(update.occupied.empty());
+  const auto none = map.computeUpdate(pcl::PointCloud<pcl::PointXYZ>{}, {0, 0, 0});
+  EXPECT_TRUE(none.free.empty() && none.occupied.empty());
+  EXPECT_EQ(map.entropyReduction(none), 0.0);
+  EXPECT_THROW(map.computeUpdate(scan, {std::nan(""), 0, 0}), std::invalid_argument);
+  Pose3 nan_pose = Pose3::Identity();
+  nan_pose.translation().x() = std::nan("");
+  EXPECT_THROW(map.simulatedCsqmi(nan_pose), std::invalid_argument);
+  MapperParams bad = params();
+  bad.resolution_m = 0;
+  try {
+    OccupancyMap invalid(bad);
+    FAIL() << "accepted resolution_m = 0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("resolution_m"), std::string::npos);
+  }
+}
+
+TEST(ScanRanker, LazyGreedyEqualsNaiveGreedyWithFarFewerEvaluations) {
+  // Scans along a corridor of voxels: neighbours overlap, so ranking must look at what the
+  // chosen ones already cover.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> gain(0.01F, 1.0F);
+  std::uniform_int_distribution<int> start(0, 2000);
+  std::vector<std::vector<VoxelGain>> scans(200);
+  std::vector<double> bonus;
+  for (auto& scan : scans) {
+    const int first = start(rng);
+    for (int v = first; v < first + 300; ++v) {
+      scan.emplace_back(octomap::OcTreeKey(static_cast<octomap::key_type>(v), 7, 7), gain(rng));
+    }
+    bonus.push_back(gain(rng) * 5);
+  }
+  const ScanRanker ranker(scans, bonus);
+  const auto naive = ranker.rankNaive(15);
+  const std::size_t naive_evaluations = ranker.evaluations();
+  const auto lazy = ranker.rankLazy(15);
+  ASSERT_EQ(naive.size(), 15U);
+  ASSERT_EQ(lazy.size(), naive.size());
+  for (std::size_t i = 0; i < naive.size(); ++i) {
+    EXPECT_EQ(lazy[i].index, naive[i].index) << "rank " << i;
+    EXPECT_DOUBLE_EQ(lazy[i].gain, naive[i].gain);
+    if (i > 0) EXPECT_LE(naive[i].gain, naive[i - 1].gain) << "gains diminish";
+  }
+  EXPECT_LT(ranker.evaluations() * 4, naive_evaluations);
+  // The first choice is the scan worth most alone.
+  double best = 0;
+  for (std::size_t s = 0; s < scans.size(); ++s) {
+    double alone = bonus[s];
+    for (const auto& [key, g] : scans[s]) alone += g;
+    best = std::max(best, alone);
+  }
+  EXPECT_DOUBLE_EQ(naive.front().gain, best);
+  // Asking for more than there are returns them all; a bonus per scan or none.
+  EXPECT_EQ(ScanRanker(scans).rankLazy(500).size(), scans.size());
+  EXPECT_THROW(ScanRanker(scans, {1.0}), std::invalid_argument);
+}
+
+Pose3 at(double x, double y, double yaw_deg = 0) {
+  return Eigen::Translation3d(x, y, 0) *
+         Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ());
+}
+
+TEST(KeyframeMap, FollowsOptimizedPosesAndPlacesTeammatesOnceTheirFrameIsKnown) {
+  KeyframeMap map(params());
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  EXPECT_TRUE(map.addOwn(1, cloud, at(0, 0)).map_from_sensor.isApprox(at(0, 0)));
+  map.addOwn(2, cloud, at(2, 0));
+  // The Backend moves keyframe 2 by 0.1 m: under the rebuild threshold (0.2 m).
+  map.setOptimizedPoses({{1, at(0, 0)}, {2, at(2, 0.1)}});
+  EXPECT_FALSE(map.rebuildDue());
+  // A new keyframe is placed with the latest correction.
+  EXPECT_TRUE(map.addOwn(3, cloud, at(4, 0)).map_from_sensor.isApprox(at(4, 0.1)));
+  // A loop closure moves keyframe 2 by 0.5 m and 2 degrees: rebuild, at the optimised poses.
+  map.setOptimizedPoses({{2, at(2, 0.5, 2)}, {99, at(9, 9)}});
+  EXPECT_TRUE(map.rebuildDue());
+  auto all = map.placeAll();
+  EXPECT_FALSE(map.rebuildDue());
+  ASSERT_EQ(all.size(), 3U);
+  EXPECT_TRUE(all[1].map_from_sensor.isApprox(at(2, 0.5, 2)));
+
+  // A teammate's scans wait for its frame, then are placed with it.
+  EXPECT_TRUE(map.addPeer("robot_b", cloud, at(1, 1)).empty());
+  EXPECT_EQ(map.pendingPeerScans(), 1U);
+  const auto placed = map.setTeamTransform("robot_b", at(10, 0, 90));
+  ASSERT_EQ(placed.size(), 1U);
+  EXPECT_TRUE(placed[0].map_from_sensor.isApprox(at(10, 0, 90) * at(1, 1)));
+  EXPECT_EQ(map.addPeer("robot_b", cloud, at(2, 2)).size(), 1U);
+  EXPECT_EQ(map.peerScans(), 2U);
+  EXPECT_EQ(map.pendingPeerScans(), 0U);
+  // The same estimate again changes nothing; a better one 1 m away makes a rebuild due.
+  map.setTeamTransform("robot_b", at(10, 0, 90));
+  EXPECT_FALSE(map.rebuildDue());
+  map.setTeamTransform("robot_b", at(11, 0, 90));
+  EXPECT_TRUE(map.rebuildDue());
+  EXPECT_EQ(map.placeAll().size(), 5U);
+}
+
+TEST(ScanRanker, CoarsenedGainsSumPerBlock) {
+  const std::vector<VoxelGain> gains = {{octomap::OcTreeKey(8, 8, 8), 0.5F},
+                                        {octomap::OcTreeKey(15, 9, 8), 0.25F},
+                                        {octomap::OcTreeKey(16, 8, 8), 1.0F}};
+  const auto blocks = coarsened(gains, 3);
+  ASSERT_EQ(blocks.size(), 2U);
+  EXPECT_EQ(blocks[0].first, octomap::OcTreeKey(1, 1, 1));
+  EXPECT_FLOAT_EQ(blocks[0].second, 0.75F);
+  EXPECT_EQ(blocks[1].first, octomap::OcTreeKey(2, 1, 1));
+  EXPECT_FLOAT_EQ(blocks[1].second, 1.0F);
+  EXPECT_EQ(coarsened(gains, 0).size(), 3U);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::information
