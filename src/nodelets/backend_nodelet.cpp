@@ -13,6 +13,7 @@
 #include <nav_msgs/Path.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
@@ -60,6 +61,8 @@ class BackendNodelet final : public PipelineNodelet {
     team_pub_ = nh.advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
     uncertainty_pub_ =
         nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_uncertainty", 1);
+    loop_marker_pub_ =
+        nh.advertise<visualization_msgs::MarkerArray>(topics::kLoopClosureMarkers, 1);
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &BackendNodelet::onKeyframe, this);
     peer_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
@@ -179,6 +182,43 @@ class BackendNodelet final : public PipelineNodelet {
     }
   }
 
+  /// Loop closures as lines between their keyframes: kept intra-robot ones green, rejected red,
+  /// the team transforms' inter-robot inliers blue.
+  void publishLoopMarkers(const core::backend::BackendSnapshot& snapshot, const ros::Time& stamp) {
+    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
+    const char* names[] = {"loops kept", "loops rejected", "inter-robot loops"};
+    const float colours[][3] = {{0.1F, 0.8F, 0.1F}, {0.9F, 0.1F, 0.1F}, {0.2F, 0.4F, 1.0F}};
+    for (int kind = 0; kind < 3; ++kind) {
+      visualization_msgs::Marker m;
+      m.header.frame_id = settings_.frames.map_frame;
+      m.header.stamp = stamp;
+      m.ns = names[kind];
+      m.type = visualization_msgs::Marker::LINE_LIST;
+      m.pose.orientation.w = 1.0;
+      m.scale.x = 0.1;
+      m.color.r = colours[kind][0];
+      m.color.g = colours[kind][1];
+      m.color.b = colours[kind][2];
+      m.color.a = 1.0F;
+      for (const auto& line : snapshot.loop_lines) {
+        const int k = line.inter_robot ? 2 : (line.accepted ? 0 : 1);
+        if (k != kind) continue;
+        for (const Eigen::Vector3d& end : {line.from, line.to}) {
+          geometry_msgs::Point p;
+          p.x = end.x();
+          p.y = end.y();
+          p.z = end.z();
+          m.points.push_back(p);
+        }
+      }
+      // An empty LINE_LIST is removed rather than drawn.
+      m.action =
+          m.points.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+      markers->markers.push_back(m);
+    }
+    loop_marker_pub_.publish(markers);
+  }
+
   void publish(const core::backend::BackendSnapshot& snapshot) {
     if (snapshot.poses.empty()) return;
     const ros::Time stamp = conversions::toRosTime(snapshot.stamps.back());
@@ -194,6 +234,7 @@ class BackendNodelet final : public PipelineNodelet {
     }
     count("out trajectory");
     trajectory_pub_.publish(path);
+    if (loop_marker_pub_.getNumSubscribers() > 0) publishLoopMarkers(snapshot, stamp);
 
     std::vector<geometry_msgs::TransformStamped> transforms;
     if (settings_.publish_tf) {
@@ -272,6 +313,7 @@ class BackendNodelet final : public PipelineNodelet {
   int intra_loops_ = 0;
   int intra_rejected_ = 0;
   ros::Publisher trajectory_pub_;
+  ros::Publisher loop_marker_pub_;
   ros::Publisher team_pub_;
   ros::Publisher uncertainty_pub_;
   ros::Subscriber keyframe_sub_;

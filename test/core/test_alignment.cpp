@@ -171,6 +171,13 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
   const auto covariance = graph.covariances({10});
   ASSERT_TRUE(covariance);
   EXPECT_GT(covariance->front().trace(), 0.0);
+  // What rviz draws: one line per inlier, from own keyframe to the teammate's placed with the
+  // transform, where it truly is.
+  ASSERT_EQ(snapshot.loop_lines.size(), static_cast<std::size_t>(estimate.alignment.inlier_count));
+  for (const auto& line : snapshot.loop_lines) {
+    EXPECT_TRUE(line.inter_robot && line.accepted);
+    EXPECT_LT((line.from - line.to).norm(), 10.0);
+  }
 }
 
 }  // namespace

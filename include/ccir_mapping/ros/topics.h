@@ -16,6 +16,7 @@ constexpr char kTrajectory[] = "trajectory";
 constexpr char kTeamTransforms[] = "team_transforms";
 constexpr char kMapCloud[] = "map_cloud";
 constexpr char kMapStats[] = "map_stats";
+constexpr char kLoopClosureMarkers[] = "loop_closure_markers";
 constexpr char kBrokerStats[] = "broker_stats";
 constexpr char kLinkStats[] = "link_stats";
 

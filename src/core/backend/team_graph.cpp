@@ -100,7 +100,12 @@ BackendSnapshot TeamGraph::optimize() {
     graph_.poses = graph.poses;
     last_weights_ = result.weights;
     for (std::size_t k = 0; k < graph.edges.size(); ++k) {
-      snapshot.intra_loops_rejected += graph.edges[k].loop && !result.inliers[k];
+      const PoseGraphEdge& e = graph.edges[k];
+      if (!e.loop) continue;
+      snapshot.intra_loops_rejected += !result.inliers[k];
+      snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
+                                     graph.poses[static_cast<std::size_t>(e.to)].translation(),
+                                     static_cast<bool>(result.inliers[k]), false});
     }
   }
 
@@ -132,6 +137,12 @@ BackendSnapshot TeamGraph::optimize() {
     estimate.peer = peer;
     estimate.candidates = static_cast<int>(list.size());
     estimate.alignment = alignment::estimateFrameTransform(list, params);
+    for (std::size_t k = 0; estimate.alignment.found && k < list.size(); ++k) {
+      if (!estimate.alignment.inliers[k]) continue;
+      snapshot.loop_lines.push_back({list[k].pose_a.translation(),
+                                     (estimate.alignment.transform * list[k].pose_b).translation(),
+                                     true, true});
+    }
     snapshot.team.push_back(estimate);
   }
 

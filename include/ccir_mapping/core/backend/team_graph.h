@@ -30,6 +30,16 @@ struct TeamEstimate {
   int candidates = 0;
 };
 
+/// A loop closure to draw: its two keyframes' positions in the map frame.
+struct LoopLine {
+  Eigen::Vector3d from = Eigen::Vector3d::Zero();
+  Eigen::Vector3d to = Eigen::Vector3d::Zero();
+  /// Intra-robot: kept by the robust optimiser; inter-robot lines are the team transform's
+  /// inliers (the teammate's keyframe placed with it).
+  bool accepted = false;
+  bool inter_robot = false;
+};
+
 struct BackendSnapshot {
   /// This robot's keyframes: id, stamp and optimised pose in the map frame, in id order.
   std::vector<KeyframeId> ids;
@@ -38,6 +48,7 @@ struct BackendSnapshot {
   /// The newest keyframe's odometry pose (map -> odom = poses.back() * odom_pose^-1).
   Pose3 latest_odom_pose = Pose3::Identity();
   std::vector<TeamEstimate> team;
+  std::vector<LoopLine> loop_lines;
   int intra_loops = 0;
   int intra_loops_rejected = 0;
   double solve_s = 0.0;
