@@ -69,6 +69,7 @@ class MapperNodelet final : public PipelineNodelet {
     const auto pose = conversions::toPose(keyframe.odom_pose);
     std::optional<std::string> error = conversions::checkCloud(keyframe.cloud, nullptr);
     if (!error && !pose) error = "odom_pose is not finite";
+    if (!error && keyframe.cloud.width * keyframe.cloud.height == 0) error = "the cloud is empty";
     if (error) {
       NODELET_WARN_THROTTLE(5.0, "dropping %s %lu of %s: %s", flow,
                             static_cast<unsigned long>(keyframe.id), keyframe.robot.c_str(),
