@@ -232,6 +232,20 @@ TEST_F(Pipeline, BridgeReportsItsPeerLink) {
   EXPECT_DOUBLE_EQ(s().link_stats->budget_bytes_per_s, 150000.0);
 }
 
+/// Points of `cloud` on the 5 m circles the scans saw from x = 0 .. 9 m, y = `y`, 0.5 m high.
+int onCircles(const sensor_msgs::PointCloud2& cloud, double y) {
+  int on = 0;
+  for (sensor_msgs::PointCloud2ConstIterator<float> p(cloud, "x"); p != p.end(); ++p) {
+    for (int k = 0; k < 10; ++k) {
+      if (std::abs(std::hypot(p[0] - k, p[1] - y) - 5.0) < 0.2 && std::abs(p[2] - 0.5) < 0.2) {
+        ++on;
+        break;
+      }
+    }
+  }
+  return on;
+}
+
 TEST_F(Pipeline, MapperMapsTheKeyframesAndSavesTheMap) {
   MapStats::ConstPtr stats;
   sensor_msgs::PointCloud2::ConstPtr map_cloud;
@@ -257,17 +271,7 @@ TEST_F(Pipeline, MapperMapsTheKeyframesAndSavesTheMap) {
   // frame.
   EXPECT_EQ(map_cloud->header.frame_id, s().robot + "/map");
   ASSERT_GT(map_cloud->width * map_cloud->height, 100u);
-  sensor_msgs::PointCloud2ConstIterator<float> p(*map_cloud, "x");
-  int near_circle = 0;
-  for (; p != p.end(); ++p) {
-    for (int k = 0; k < 10; ++k) {
-      if (std::abs(std::hypot(p[0] - k, p[1]) - 5.0) < 0.2 && std::abs(p[2] - 0.5) < 0.2) {
-        ++near_circle;
-        break;
-      }
-    }
-  }
-  EXPECT_GT(near_circle, 0.9 * map_cloud->width * map_cloud->height);
+  EXPECT_GT(onCircles(*map_cloud, 0.0), 0.9 * map_cloud->width * map_cloud->height);
 
   // A teammate's scan with a broken pose is dropped with a warning; the map is unchanged.
   auto broken = boost::make_shared<Keyframe>();
@@ -294,6 +298,24 @@ TEST_F(Pipeline, MapperMapsTheKeyframesAndSavesTheMap) {
   ASSERT_TRUE(saved.readBinary(path)) << path;
   EXPECT_GT(saved.getNumLeafNodes(), 100u);
   std::remove(path.c_str());
+
+  // Optimised poses 1 m away from where the keyframes went in: the map is rebuilt there.
+  auto moved = boost::make_shared<nav_msgs::Path>(*s().trajectory);
+  for (auto& pose : moved->poses) pose.pose.position.y += 1.0;
+  ros::Publisher trajectory = s().nh.advertise<nav_msgs::Path>("trajectory", 1);
+  polls = 0;
+  ASSERT_TRUE(waitFor(
+      [&] {
+        if (polls++ % 20 == 0) trajectory.publish(moved);
+        return stats && stats->rebuilds >= 1;
+      },
+      20.0))
+      << "the map was not rebuilt at the moved poses";
+  EXPECT_EQ(stats->keyframes, 10u);
+  const std::uint32_t rebuilds = stats->rebuilds;
+  map_cloud.reset();
+  ASSERT_TRUE(waitFor([&] { return map_cloud && stats->rebuilds == rebuilds; }, 10.0));
+  EXPECT_GT(onCircles(*map_cloud, 1.0), 0.9 * map_cloud->width * map_cloud->height);
 }
 
 TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
