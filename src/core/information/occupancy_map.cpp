@@ -73,31 +73,29 @@ double OccupancyMap::occupancy(const octomap::OcTreeKey& key) const {
   return node ? node->getOccupancy() : 0.5;
 }
 
+double OccupancyMap::entropyDrop(const octomap::OcTreeKey& key, bool hit) const {
+  const octomap::OcTreeNode* node = tree_.search(key);
+  const float before = node ? node->getLogOdds() : 0.0F;
+  return occupancyEntropyBits(probability(before)) -
+         occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
+}
+
 std::vector<VoxelGain> OccupancyMap::voxelGains(const ScanUpdate& update) const {
   std::vector<VoxelGain> gains;
   gains.reserve(update.free.size() + update.occupied.size());
-  auto add = [&](const octomap::OcTreeKey& key, bool hit) {
-    const octomap::OcTreeNode* node = tree_.search(key);
-    const float before = node ? node->getLogOdds() : 0.0F;
-    const double drop = occupancyEntropyBits(probability(before)) -
-                        occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
-    if (drop > 0) gains.emplace_back(key, static_cast<float>(drop));
-  };
-  for (const auto& key : update.free) add(key, false);
-  for (const auto& key : update.occupied) add(key, true);
+  for (const bool hit : {false, true}) {
+    for (const auto& key : hit ? update.occupied : update.free) {
+      const double drop = entropyDrop(key, hit);
+      if (drop > 0) gains.emplace_back(key, static_cast<float>(drop));
+    }
+  }
   return gains;
 }
 
 double OccupancyMap::entropyReduction(const ScanUpdate& update) const {
   double total = 0.0;
-  auto add = [&](const octomap::OcTreeKey& key, bool hit) {
-    const octomap::OcTreeNode* node = tree_.search(key);
-    const float before = node ? node->getLogOdds() : 0.0F;
-    total += occupancyEntropyBits(probability(before)) -
-             occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
-  };
-  for (const auto& key : update.free) add(key, false);
-  for (const auto& key : update.occupied) add(key, true);
+  for (const auto& key : update.free) total += entropyDrop(key, false);
+  for (const auto& key : update.occupied) total += entropyDrop(key, true);
   return total;
 }
 

@@ -84,6 +84,8 @@ class OccupancyMap {
  private:
   /// Log-odds of the voxel after one hit or miss, as OccupancyOcTreeBase::updateNode does it.
   float updatedLogOdds(float log_odds, bool hit) const;
+  /// h(before) - h(after) of one voxel for one hit or miss.
+  double entropyDrop(const octomap::OcTreeKey& key, bool hit) const;
 
   MapperParams params_;
   octomap::OcTree tree_;
