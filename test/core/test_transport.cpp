@@ -1,0 +1,220 @@
+// Bridge transport (algorithms.md section 7.5): the token bucket never lets more than
+// burst + rate * dt bytes through in any window; frames round-trip, streamed in any pieces;
+// corrupt, truncated, foreign-key and random input is refused by reason and never crashes;
+// fragments reassemble in any order within bounds.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <deque>
+#include <random>
+
+#include "ccir_mapping/core/transport/frame_codec.h"
+#include "ccir_mapping/core/transport/message_fragments.h"
+#include "ccir_mapping/core/transport/token_bucket.h"
+
+namespace ccir_mapping::core::transport {
+namespace {
+
+TEST(TokenBucket, NoWindowCarriesMoreThanBurstPlusRateTimesItsLength) {
+  const double rate = 150000.0;
+  const double burst = 65536.0;
+  TokenBucket bucket(rate, burst, 0.0);
+  std::mt19937 rng(1);
+  std::uniform_int_distribution<int> size(1, 70000);
+  std::exponential_distribution<double> gap(2000.0);
+  std::vector<std::pair<double, std::size_t>> sent;  // (time, bytes)
+  double t = 0.0;
+  std::size_t total = 0;
+  while (t < 20.0) {
+    t += gap(rng);
+    const auto bytes = static_cast<std::size_t>(size(rng));
+    if (bucket.tryConsume(bytes, t)) {
+      sent.emplace_back(t, bytes);
+      total += bytes;
+    }
+  }
+  // The link was saturated: about rate * 20 s went through.
+  EXPECT_GT(total, 0.9 * rate * 20.0);
+  // Every window [sent[i].t, sent[j].t]: at most burst + rate * dt.
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    std::size_t bytes = 0;
+    for (std::size_t j = i; j < sent.size(); ++j) {
+      bytes += sent[j].second;
+      ASSERT_LE(bytes, burst + rate * (sent[j].first - sent[i].first) + 1e-6)
+          << "window " << sent[i].first << " .. " << sent[j].first;
+    }
+  }
+  EXPECT_FALSE(bucket.tryConsume(70000, t + 100.0)) << "above the burst never passes";
+  EXPECT_TRUE(std::isinf(bucket.delayFor(70000, t)));
+  EXPECT_EQ(TokenBucket(1000.0, 500.0, 0.0).delayFor(300, 0.0), 0.0) << "a full bucket";
+  TokenBucket empty(1000.0, 500.0, 0.0);
+  ASSERT_TRUE(empty.tryConsume(500, 0.0));
+  EXPECT_NEAR(empty.delayFor(250, 0.0), 0.25, 1e-12);
+  EXPECT_FALSE(empty.tryConsume(250, 0.2));
+  EXPECT_TRUE(empty.tryConsume(250, 0.25));
+  EXPECT_THROW(TokenBucket(0.0, 10.0, 0.0), std::invalid_argument);
+}
+
+Frame sampleFrame(std::size_t payload_bytes, std::uint64_t sequence = 7) {
+  Frame f;
+  f.type = FrameType::kData;
+  f.flags = 2;
+  f.topic = 3;
+  f.sequence = sequence;
+  for (std::size_t i = 0; i < payload_bytes; ++i) {
+    f.payload.push_back(static_cast<std::uint8_t>(i * 31 + sequence));
+  }
+  return f;
+}
+
+const std::string kKey = "team key";
+
+TEST(FrameCodec, RoundTripsWhateverPiecesTheStreamArrivesIn) {
+  std::vector<Frame> frames = {sampleFrame(0, 1), sampleFrame(1, 2), sampleFrame(5000, 3)};
+  frames[1].type = FrameType::kAck;
+  std::vector<std::uint8_t> stream;
+  for (const auto& f : frames) {
+    const auto bytes = encodeFrame(f, kKey);
+    EXPECT_EQ(bytes.size(), wireBytes(f.payload.size()));
+    stream.insert(stream.end(), bytes.begin(), bytes.end());
+  }
+  std::mt19937 rng(2);
+  for (int trial = 0; trial < 20; ++trial) {
+    FrameDecoder decoder(kKey, 10000);
+    std::vector<Frame> decoded;
+    std::size_t at = 0;
+    while (at < stream.size()) {
+      const std::size_t piece = std::min<std::size_t>(stream.size() - at, 1 + rng() % 700);
+      decoder.feed(stream.data() + at, piece);
+      at += piece;
+      while (auto f = decoder.next()) decoded.push_back(*f);
+    }
+    ASSERT_EQ(decoder.error(), FrameError::kNone);
+    ASSERT_EQ(decoded.size(), frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) EXPECT_TRUE(decoded[i] == frames[i]);
+    EXPECT_EQ(decoder.buffered(), 0U);
+  }
+}
+
+FrameError decodeError(const std::vector<std::uint8_t>& bytes, const std::string& key = kKey,
+                       std::size_t max_payload = 10000) {
+  FrameDecoder decoder(key, max_payload);
+  decoder.feed(bytes.data(), bytes.size());
+  while (decoder.next()) {
+  }
+  return decoder.error();
+}
+
+TEST(FrameCodec, RefusesEachKindOfBadFrameByReason) {
+  const auto good = encodeFrame(sampleFrame(100), kKey);
+  EXPECT_EQ(decodeError(good), FrameError::kNone);
+  EXPECT_EQ(decodeError(good, "another key"), FrameError::kBadMac) << "a peer without the key";
+  auto bytes = good;
+  bytes[0] = 'X';
+  EXPECT_EQ(decodeError(bytes), FrameError::kBadMagic);
+  bytes = good;
+  bytes[4] = 9;
+  EXPECT_EQ(decodeError(bytes), FrameError::kBadVersion);
+  bytes = good;
+  bytes[5] = 77;
+  EXPECT_EQ(decodeError(bytes), FrameError::kUnknownType);
+  EXPECT_EQ(decodeError(good, kKey, 99), FrameError::kTooLarge) << "judged on the header alone";
+  bytes = good;
+  bytes[10] = 5;  // fragment 5 of 1
+  EXPECT_EQ(decodeError(bytes), FrameError::kBadFragment);
+  bytes = good;
+  bytes[kFrameHeaderBytes + 50] ^= 1;
+  EXPECT_EQ(decodeError(bytes), FrameError::kBadMac) << "a flipped payload bit";
+  // Truncated: no frame, no error yet (more bytes may come); the link's timeout ends it.
+  bytes.assign(good.begin(), good.end() - 1);
+  FrameDecoder decoder(kKey, 10000);
+  decoder.feed(bytes.data(), bytes.size());
+  EXPECT_FALSE(decoder.next());
+  EXPECT_EQ(decoder.error(), FrameError::kNone);
+  // After an error the stream stays failed, even if good frames follow.
+  FrameDecoder failed(kKey, 10000);
+  auto bad = good;
+  bad[0] = 'X';
+  failed.feed(bad.data(), bad.size());
+  failed.feed(good.data(), good.size());
+  EXPECT_FALSE(failed.next());
+  EXPECT_FALSE(failed.next());
+  EXPECT_EQ(failed.error(), FrameError::kBadMagic);
+  Frame invalid = sampleFrame(1);
+  invalid.fragment = 1;
+  EXPECT_THROW(encodeFrame(invalid, kKey), std::invalid_argument);
+}
+
+TEST(FrameCodec, FuzzedInputNeverCrashesNorForgesAFrame) {
+  std::mt19937 rng(3);
+  const auto good = encodeFrame(sampleFrame(300), kKey);
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::vector<std::uint8_t> bytes;
+    if (trial % 2 == 0) {
+      // Random bytes, sometimes behind a valid magic and version.
+      bytes.resize(rng() % 2000);
+      for (auto& b : bytes) b = static_cast<std::uint8_t>(rng());
+      if (trial % 4 == 0 && bytes.size() > 6)
+        std::copy(good.begin(), good.begin() + 6, bytes.begin());
+    } else {
+      // A valid frame with a few bytes changed, cut or extended.
+      bytes = good;
+      const int edits = 1 + static_cast<int>(rng() % 4);
+      for (int e = 0; e < edits; ++e)
+        bytes[rng() % bytes.size()] ^= static_cast<std::uint8_t>(1 + rng() % 255);
+      if (rng() % 3 == 0) bytes.resize(rng() % bytes.size());
+    }
+    FrameDecoder decoder(kKey, 1 << 20);
+    decoder.feed(bytes.data(), bytes.size());
+    while (auto f = decoder.next()) {
+      // Only an unchanged frame may come out (a change that cancels itself is possible).
+      EXPECT_TRUE(*f == sampleFrame(300)) << "trial " << trial;
+    }
+  }
+}
+
+TEST(MessageFragments, ReassembleInAnyOrderWithinBounds) {
+  std::vector<std::uint8_t> message(200000);
+  for (std::size_t i = 0; i < message.size(); ++i) message[i] = static_cast<std::uint8_t>(i * 7);
+  auto frames = fragmentMessage(4, 99, message, 65536);
+  ASSERT_EQ(frames.size(), 4U);
+  for (const auto& f : frames) EXPECT_LE(f.payload.size(), 65536U);
+  std::mt19937 rng(4);
+  std::shuffle(frames.begin(), frames.end(), rng);
+  Reassembler reassembler(1 << 20, 8);
+  std::optional<std::vector<std::uint8_t>> out;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    out = reassembler.add(frames[i]);
+    EXPECT_EQ(out.has_value(), i + 1 == frames.size());
+    if (i == 0) {
+      EXPECT_FALSE(reassembler.add(frames[0])) << "a repeated fragment is dropped";
+    }
+  }
+  ASSERT_TRUE(out);
+  EXPECT_EQ(*out, message);
+  EXPECT_EQ(reassembler.droppedFragments(), 1U);
+  EXPECT_EQ(reassembler.partialMessages(), 0U);
+
+  // A small message is one frame; an empty one too.
+  EXPECT_EQ(fragmentMessage(1, 1, std::vector<std::uint8_t>(10), 65536).size(), 1U);
+  const auto empty = fragmentMessage(1, 2, {}, 65536);
+  ASSERT_EQ(empty.size(), 1U);
+  EXPECT_EQ(reassembler.add(empty[0])->size(), 0U);
+
+  // Bounds: too big a message, and too many incomplete ones (the oldest goes).
+  Reassembler small(100000, 2);
+  for (const auto& f : fragmentMessage(5, 1, message, 65536)) EXPECT_FALSE(small.add(f));
+  EXPECT_GT(small.droppedFragments(), 0U);
+  Reassembler few(1 << 20, 2);
+  for (std::uint64_t seq = 10; seq < 13; ++seq) few.add(fragmentMessage(6, seq, message, 65536)[0]);
+  EXPECT_EQ(few.partialMessages(), 2U);
+  EXPECT_EQ(few.droppedMessages(), 1U);
+  // A fragment that disagrees on the count is dropped.
+  auto odd = fragmentMessage(6, 11, message, 65536)[1];
+  odd.fragments = 9;
+  EXPECT_FALSE(few.add(odd));
+  EXPECT_THROW(fragmentMessage(1, 1, message, 0), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::transport
