@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <deque>
+#include <map>
 #include <random>
 
 #include "ccir_mapping/core/transport/frame_codec.h"
+#include "ccir_mapping/core/transport/link_scheduler.h"
 #include "ccir_mapping/core/transport/message_fragments.h"
 #include "ccir_mapping/core/transport/token_bucket.h"
 
@@ -214,6 +217,116 @@ TEST(MessageFragments, ReassembleInAnyOrderWithinBounds) {
   odd.fragments = 9;
   EXPECT_FALSE(few.add(odd));
   EXPECT_THROW(fragmentMessage(1, 1, message, 0), std::invalid_argument);
+}
+
+constexpr std::uint16_t kScans = 1;
+constexpr std::uint16_t kOffers = 2;
+constexpr std::uint16_t kStats = 3;
+
+LinkScheduler mineLink(double now = 0.0) {
+  LinkScheduler link(150000.0, 131072, 65536, now);
+  link.setTopic(kScans, {Priority::kBulk, QueuePolicy::kFifo, 0.0, 10});
+  link.setTopic(kOffers, {Priority::kControl, QueuePolicy::kFifo, 0.0, 100});
+  link.setTopic(kStats, {Priority::kControl, QueuePolicy::kKeepLatest, 0.0, 1});
+  return link;
+}
+
+TEST(LinkScheduler, ControlOvertakesAScanBetweenItsFragments) {
+  LinkScheduler link = mineLink();
+  EXPECT_EQ(link.enqueue(kScans, std::vector<std::uint8_t>(200000, 1), 0.0), 1U);
+  const auto first = link.next(0.0);
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->topic, kScans);
+  EXPECT_EQ(first->fragments, 4);
+  EXPECT_EQ(link.enqueue(kOffers, std::vector<std::uint8_t>(100, 2), 0.0), 1U);
+  EXPECT_EQ(link.enqueue(kOffers, std::vector<std::uint8_t>(100, 3), 0.0), 2U);
+  // The bucket is short now: nothing until it refills, then the offers, then the scan goes on.
+  std::vector<std::uint16_t> order;
+  double t = 0.0;
+  for (double wait = link.delay(t); !std::isinf(wait); wait = link.delay(t)) {
+    t += wait;
+    const auto f = link.next(t);
+    ASSERT_TRUE(f) << "at " << t << " after " << order.size() << " frames, waited " << wait;
+    order.push_back(f->topic);
+  }
+  EXPECT_EQ(order, (std::vector<std::uint16_t>{kOffers, kOffers, kScans, kScans, kScans}));
+  EXPECT_EQ(link.counters().messages_sent, 3U);
+}
+
+TEST(LinkScheduler, SaturatedLinkStaysInBudgetAndControlStaysFast) {
+  // Scans of ~120 KB every 0.5 s (twice what 150 KB/s carries) and an offer every 0.1 s, for 30 s.
+  LinkScheduler link = mineLink();
+  std::vector<std::pair<double, std::size_t>> sent;
+  std::map<std::uint64_t, double> offer_enqueued;
+  std::vector<double> offer_latency;
+  double t = 0.0;
+  double next_scan = 0.0;
+  double next_offer = 0.0;
+  while (t < 30.0) {
+    if (t >= next_scan) {
+      link.enqueue(kScans, std::vector<std::uint8_t>(120000), t);
+      next_scan += 0.5;
+    }
+    if (t >= next_offer) {
+      offer_enqueued[link.enqueue(kOffers, std::vector<std::uint8_t>(300), t)] = t;
+      next_offer += 0.1;
+    }
+    while (auto f = link.next(t)) {
+      sent.emplace_back(t, wireBytes(f->payload.size()));
+      if (f->topic == kOffers) offer_latency.push_back(t - offer_enqueued.at(f->sequence));
+    }
+    t += 0.001;
+  }
+  // Every 1 s window: at most burst + rate; overall at least 90 % of the budget used.
+  double total = 0;
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    total += sent[i].second;
+    double window = 0;
+    for (std::size_t j = i; j < sent.size() && sent[j].first < sent[i].first + 1.0; ++j) {
+      window += sent[j].second;
+    }
+    ASSERT_LE(window, 131072 + 150000.0) << "window from " << sent[i].first;
+  }
+  EXPECT_GT(total, 0.9 * 150000.0 * 30.0);
+  // An offer waits at most for the fragment on the wire: 64 KB at 150 KB/s.
+  ASSERT_GT(offer_latency.size(), 250U);
+  std::sort(offer_latency.begin(), offer_latency.end());
+  EXPECT_LT(offer_latency.back(), 65536.0 / 150000.0 + 0.01);
+  EXPECT_GT(link.counters().dropped_queue_full, 0U) << "the scan queue overflowed, bounded";
+  EXPECT_LE(link.queued(Priority::kBulk), 10U);
+}
+
+TEST(LinkScheduler, QueuePoliciesKeepLatestBoundAndExpire) {
+  LinkScheduler link(1000.0, 70000, 1000, 0.0);
+  link.setTopic(kStats, {Priority::kControl, QueuePolicy::kKeepLatest, 0.0, 1});
+  link.setTopic(kOffers, {Priority::kControl, QueuePolicy::kFifo, 0.0, 2});
+  link.setTopic(kScans, {Priority::kBulk, QueuePolicy::kFifo, 1.0, 10});
+  // Stop sending for a while: empty the bucket.
+  link.enqueue(kScans, std::vector<std::uint8_t>(60000), 0.0);
+  while (link.next(0.0)) {
+  }
+  link.enqueue(kStats, {1}, 0.0);
+  link.enqueue(kStats, {2}, 0.0);
+  link.enqueue(kOffers, {1}, 0.0);
+  link.enqueue(kOffers, {2}, 0.0);
+  link.enqueue(kOffers, {3}, 0.0);
+  link.enqueue(kScans, {9}, 0.0);
+  EXPECT_EQ(link.counters().replaced, 1U);
+  EXPECT_EQ(link.counters().dropped_queue_full, 1U);
+  // Much later: the scan is too old, the rest goes out in order.
+  std::vector<std::vector<std::uint8_t>> out;
+  double t = 100.0;
+  while (!std::isinf(link.delay(t))) {
+    t += link.delay(t);
+    out.push_back(link.next(t)->payload);
+  }
+  EXPECT_EQ(out.size(), 3U);
+  EXPECT_EQ(out[0], std::vector<std::uint8_t>{2}) << "the latest stats only";
+  EXPECT_EQ(out[1], std::vector<std::uint8_t>{2}) << "offer 1 was dropped for offer 3";
+  EXPECT_EQ(out[2], std::vector<std::uint8_t>{3});
+  EXPECT_GE(link.counters().dropped_expired, 1U);
+  EXPECT_THROW(link.enqueue(42, {}, t), std::invalid_argument);
+  EXPECT_THROW(LinkScheduler(1000.0, 1000, 65536, 0.0), std::invalid_argument);
 }
 
 }  // namespace

@@ -5,6 +5,12 @@
 #include <stdexcept>
 
 namespace ccir_mapping::core::transport {
+namespace {
+
+// A micro-byte of slack: delayFor()'s answer, added to a clock, may round just short.
+constexpr double kSlackBytes = 1e-6;
+
+}  // namespace
 
 TokenBucket::TokenBucket(double rate_bytes_per_s, double burst_bytes, double now_s)
     : rate_(rate_bytes_per_s), burst_(burst_bytes), tokens_(burst_bytes), last_s_(now_s) {
@@ -22,8 +28,8 @@ bool TokenBucket::tryConsume(std::size_t bytes, double now_s) {
   const double available = tokens(now_s);
   last_s_ = std::max(last_s_, now_s);
   tokens_ = available;
-  if (static_cast<double>(bytes) > available) return false;
-  tokens_ -= static_cast<double>(bytes);
+  if (static_cast<double>(bytes) > available + kSlackBytes) return false;
+  tokens_ = std::max(0.0, tokens_ - static_cast<double>(bytes));
   return true;
 }
 

@@ -1,0 +1,89 @@
+// What one bridge link sends next: strict priority classes (control before bulk), a queue policy
+// per topic (FIFO or keep-latest, bounded, with a maximum age), large messages cut into
+// fragments so a control message waits at most one fragment, and a token bucket on the bytes
+// that reach the wire (frame headers and MACs included).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/transport/bridge_params.h"
+#include "ccir_mapping/core/transport/frame_codec.h"
+#include "ccir_mapping/core/transport/token_bucket.h"
+
+namespace ccir_mapping::core::transport {
+
+enum class QueuePolicy { kFifo, kKeepLatest };
+
+struct TopicPolicy {
+  Priority priority = Priority::kControl;
+  QueuePolicy queue = QueuePolicy::kFifo;
+  /// Messages waiting longer than this are dropped before sending; 0 keeps them.
+  double max_age_s = 0.0;
+  /// Messages queued at most; a new one beyond it drops the oldest waiting.
+  std::size_t max_queued = 100;
+};
+
+struct LinkCounters {
+  std::uint64_t frames_sent = 0;
+  std::uint64_t bytes_sent = 0;  // on the wire
+  std::uint64_t messages_sent = 0;
+  std::uint64_t dropped_queue_full = 0;
+  std::uint64_t dropped_expired = 0;
+  std::uint64_t replaced = 0;  // keep-latest: a newer message took its place
+};
+
+class LinkScheduler {
+ public:
+  /// Throws std::invalid_argument for a non-positive rate, burst or fragment size, or a
+  /// fragment whose frame would not fit in the burst.
+  LinkScheduler(double rate_bytes_per_s, std::size_t burst_bytes, std::size_t fragment_bytes,
+                double now_s);
+
+  void setTopic(std::uint16_t topic, const TopicPolicy& policy);
+  /// Queues a serialised message of a topic set before (else std::invalid_argument); returns
+  /// the sequence number it will carry (per topic, from 1).
+  std::uint64_t enqueue(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s);
+
+  /// The next frame to send at `now_s`, or nullopt when nothing is queued or the bucket has too
+  /// few tokens (see delay()).
+  std::optional<Frame> next(double now_s);
+  /// Seconds until next() can send (0 if it can now), or infinity when nothing is queued.
+  double delay(double now_s);
+
+  std::size_t queued(Priority priority) const;
+  const LinkCounters& counters() const { return counters_; }
+
+ private:
+  struct Message {
+    std::uint16_t topic;
+    std::uint64_t sequence;
+    double enqueued_s;
+    std::vector<std::uint8_t> bytes;
+  };
+  struct Topic {
+    TopicPolicy policy;
+    std::uint64_t last_sequence = 0;
+  };
+
+  void dropExpired(double now_s);
+  /// The class that sends next: one with fragments in flight or queued messages, control first.
+  std::optional<Priority> nextClass() const;
+  /// Starts the oldest message of a class: its fragments become the class's in-flight frames.
+  void start(Priority priority);
+
+  TokenBucket bucket_;
+  std::size_t fragment_bytes_;
+  std::map<std::uint16_t, Topic> topics_;
+  /// Per class: waiting messages in arrival order, and the fragments of the one being sent.
+  std::map<Priority, std::deque<Message>> waiting_;
+  std::map<Priority, std::deque<Frame>> in_flight_;
+  LinkCounters counters_;
+};
+
+}  // namespace ccir_mapping::core::transport

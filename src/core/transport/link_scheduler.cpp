@@ -1,0 +1,109 @@
+#include "ccir_mapping/core/transport/link_scheduler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "ccir_mapping/core/transport/message_fragments.h"
+
+namespace ccir_mapping::core::transport {
+
+LinkScheduler::LinkScheduler(double rate_bytes_per_s, std::size_t burst_bytes,
+                             std::size_t fragment_bytes, double now_s)
+    : bucket_(rate_bytes_per_s, static_cast<double>(burst_bytes), now_s),
+      fragment_bytes_(fragment_bytes) {
+  if (fragment_bytes == 0 || wireBytes(fragment_bytes) > burst_bytes) {
+    throw std::invalid_argument(
+        "LinkScheduler: fragment_bytes must be positive and a fragment's "
+        "frame must fit in burst_bytes");
+  }
+}
+
+void LinkScheduler::setTopic(std::uint16_t topic, const TopicPolicy& policy) {
+  topics_[topic].policy = policy;
+}
+
+std::uint64_t LinkScheduler::enqueue(std::uint16_t topic, std::vector<std::uint8_t> message,
+                                     double now_s) {
+  const auto it = topics_.find(topic);
+  if (it == topics_.end()) throw std::invalid_argument("LinkScheduler: unknown topic");
+  Topic& t = it->second;
+  auto& queue = waiting_[t.policy.priority];
+  const auto same_topic = [topic](const Message& m) { return m.topic == topic; };
+  if (t.policy.queue == QueuePolicy::kKeepLatest) {
+    const auto before = queue.size();
+    queue.erase(std::remove_if(queue.begin(), queue.end(), same_topic), queue.end());
+    counters_.replaced += before - queue.size();
+  } else if (static_cast<std::size_t>(std::count_if(queue.begin(), queue.end(), same_topic)) >=
+             t.policy.max_queued) {
+    queue.erase(std::find_if(queue.begin(), queue.end(), same_topic));
+    ++counters_.dropped_queue_full;
+  }
+  queue.push_back({topic, ++t.last_sequence, now_s, std::move(message)});
+  return t.last_sequence;
+}
+
+void LinkScheduler::dropExpired(double now_s) {
+  for (auto& [priority, queue] : waiting_) {
+    const auto before = queue.size();
+    queue.erase(std::remove_if(queue.begin(), queue.end(),
+                               [&](const Message& m) {
+                                 const double max_age = topics_.at(m.topic).policy.max_age_s;
+                                 return max_age > 0 && now_s - m.enqueued_s > max_age;
+                               }),
+                queue.end());
+    counters_.dropped_expired += before - queue.size();
+  }
+}
+
+std::optional<Priority> LinkScheduler::nextClass() const {
+  for (const Priority p : {Priority::kControl, Priority::kBulk}) {
+    const auto f = in_flight_.find(p);
+    const auto w = waiting_.find(p);
+    if ((f != in_flight_.end() && !f->second.empty()) ||
+        (w != waiting_.end() && !w->second.empty())) {
+      return p;
+    }
+  }
+  return std::nullopt;
+}
+
+void LinkScheduler::start(Priority priority) {
+  auto& frames = in_flight_[priority];
+  auto& queue = waiting_[priority];
+  if (!frames.empty() || queue.empty()) return;
+  const Message& m = queue.front();
+  for (auto& f : fragmentMessage(m.topic, m.sequence, m.bytes, fragment_bytes_)) {
+    frames.push_back(std::move(f));
+  }
+  queue.pop_front();
+}
+
+double LinkScheduler::delay(double now_s) {
+  dropExpired(now_s);
+  const auto priority = nextClass();
+  if (!priority) return std::numeric_limits<double>::infinity();
+  start(*priority);
+  return bucket_.delayFor(wireBytes(in_flight_[*priority].front().payload.size()), now_s);
+}
+
+std::optional<Frame> LinkScheduler::next(double now_s) {
+  if (std::isinf(delay(now_s))) return std::nullopt;  // (also readies the next fragment)
+  auto& frames = in_flight_[*nextClass()];
+  const std::size_t bytes = wireBytes(frames.front().payload.size());
+  if (!bucket_.tryConsume(bytes, now_s)) return std::nullopt;
+  Frame frame = std::move(frames.front());
+  frames.pop_front();
+  ++counters_.frames_sent;
+  counters_.bytes_sent += bytes;
+  counters_.messages_sent += frame.fragment + 1 == frame.fragments;
+  return frame;
+}
+
+std::size_t LinkScheduler::queued(Priority priority) const {
+  const auto it = waiting_.find(priority);
+  return it == waiting_.end() ? 0 : it->second.size();
+}
+
+}  // namespace ccir_mapping::core::transport
