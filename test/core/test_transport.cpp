@@ -12,6 +12,7 @@
 #include <random>
 
 #include "ccir_mapping/core/transport/frame_codec.h"
+#include "ccir_mapping/core/transport/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 #include "ccir_mapping/core/transport/message_fragments.h"
 #include "ccir_mapping/core/transport/reliable_outbox.h"
@@ -373,6 +374,43 @@ TEST(ReliableDelivery, EveryMessageArrivesExactlyOnceAcrossADisconnect) {
   EXPECT_EQ(gaps.missing(), 5U);
   EXPECT_FALSE(gaps.accept("robot_c", 2, 6));
   EXPECT_TRUE(gaps.accept("robot_b", 2, 1)) << "per peer";
+}
+
+TEST(LinkEmulator, KeepsOrderRateDelayLossOutagesAndItsSeed) {
+  LinkEmulatorParams params;
+  params.rate_bytes_per_s = 100000.0;
+  params.delay_s = 0.05;
+  params.jitter_s = 0.02;
+  params.loss = 0.1;
+  params.outages = {{5.0, 7.0}};
+  params.seed = 9;
+  LinkEmulator link(params);
+  std::vector<double> sent;
+  std::vector<double> arrived;
+  for (int i = 0; i < 2000; ++i) {
+    const double t = 0.005 * i;  // 1000-byte chunks at 200 KB/s: twice the rate
+    sent.push_back(t);
+    arrived.push_back(link.arrival(1000, t));
+  }
+  EXPECT_TRUE(std::is_sorted(arrived.begin(), arrived.end())) << "a stream keeps its order";
+  for (std::size_t i = 0; i < arrived.size(); ++i) {
+    EXPECT_GE(arrived[i], sent[i] + params.delay_s - params.jitter_s - 1e-9);
+    EXPECT_FALSE(link.down(arrived[i])) << "arrived during the outage";
+  }
+  // The rate: 2 MB took at least 20 s of link time plus the 2 s outage.
+  EXPECT_GE(arrived.back(), 2000 * 1000 / params.rate_bytes_per_s + 2.0);
+  EXPECT_LT(arrived.back(), 2000 * 1000 / params.rate_bytes_per_s + 2.0 + 0.5);
+  // The same seed gives the same link.
+  LinkEmulator again(params);
+  for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_EQ(again.arrival(1000, sent[i]), arrived[i]);
+  // A lossless, jitter-free, idle link: exactly serialisation + delay.
+  LinkEmulatorParams plain;
+  plain.jitter_s = 0.0;
+  plain.rate_bytes_per_s = 1000.0;
+  EXPECT_DOUBLE_EQ(LinkEmulator(plain).arrival(500, 1.0), 1.0 + 0.5 + plain.delay_s);
+  LinkEmulatorParams bad;
+  bad.loss = 2.0;
+  EXPECT_THROW(LinkEmulator{bad}, std::invalid_argument);
 }
 
 }  // namespace
