@@ -203,13 +203,8 @@ class BackendNodelet final : public PipelineNodelet {
       for (const auto& line : snapshot.loop_lines) {
         const int k = line.inter_robot ? 2 : (line.accepted ? 0 : 1);
         if (k != kind) continue;
-        for (const Eigen::Vector3d& end : {line.from, line.to}) {
-          geometry_msgs::Point p;
-          p.x = end.x();
-          p.y = end.y();
-          p.z = end.z();
-          m.points.push_back(p);
-        }
+        m.points.push_back(tf2::toMsg(line.from));
+        m.points.push_back(tf2::toMsg(line.to));
       }
       // An empty LINE_LIST is removed rather than drawn.
       m.action =

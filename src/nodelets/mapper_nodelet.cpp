@@ -11,6 +11,7 @@
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
@@ -105,6 +106,8 @@ class MapperNodelet final : public PipelineNodelet {
     for (const auto& p : path->poses) {
       if (const auto pose = conversions::toPose(p.pose)) {
         poses.emplace_back(conversions::toStamp(p.header.stamp), *pose);
+      } else {
+        NODELET_WARN_THROTTLE(5.0, "ignoring a non-finite pose in the trajectory");
       }
     }
     std::lock_guard lock(mutex_);
@@ -150,15 +153,8 @@ class MapperNodelet final : public PipelineNodelet {
       stats->known_volume_m3 = map.knownVolumeM3(box);
       return 0;
     });
-    auto point = [](const Eigen::Vector3d& v) {
-      geometry_msgs::Point p;
-      p.x = v.x();
-      p.y = v.y();
-      p.z = v.z();
-      return p;
-    };
-    stats->box_min = point(box.min);
-    stats->box_max = point(box.max);
+    stats->box_min = tf2::toMsg(box.min);
+    stats->box_max = tf2::toMsg(box.max);
     {
       std::lock_guard lock(mutex_);
       stats->keyframes = static_cast<std::uint32_t>(keyframes_->ownKeyframes());
