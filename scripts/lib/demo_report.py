@@ -10,7 +10,7 @@ import math
 import time
 
 import rospy
-from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures
+from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures, MapStats
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Path
 
@@ -22,6 +22,7 @@ class Report:
         self.outbox_scans = []
         self.trajectory = None
         self.broker = None
+        self.map = None
         self.flows = {}
         self.levels = {}
         self.updated_at = {}
@@ -31,6 +32,7 @@ class Report:
             rospy.Subscriber("outbox/scans", Keyframe, self.on_scan, queue_size=100),
             rospy.Subscriber("trajectory", Path, self.on_trajectory, queue_size=1),
             rospy.Subscriber("broker_stats", BrokerStats, self.on_broker, queue_size=1),
+            rospy.Subscriber("map_stats", MapStats, self.on_map, queue_size=1),
             rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20),
         ]
 
@@ -52,6 +54,9 @@ class Report:
     def on_broker(self, msg):
         self.broker = msg
 
+    def on_map(self, msg):
+        self.map = msg
+
     def on_diagnostics(self, msg):
         for status in msg.status:
             nodelet = status.name.split(":")[0].split("/")[-1]
@@ -59,6 +64,12 @@ class Report:
             self.levels[nodelet] = ord(status.level) if isinstance(status.level, bytes) else status.level
             self.flows[nodelet] = {kv.key: int(kv.value) if kv.value.isdigit() else kv.value
                                    for kv in status.values}
+
+    def box_voxels(self):
+        """Voxels of the map's entropy box: its entropy while nothing is known (1 bit each)."""
+        lo, hi, res = self.map.box_min, self.map.box_max, self.map.resolution_m
+        return math.prod(round((b - a) / res) + 1
+                         for a, b in ((lo.x, hi.x), (lo.y, hi.y), (lo.z, hi.z)))
 
     def connected(self):
         return all(s.get_num_connections() > 0 for s in self.subs[:3])
@@ -77,6 +88,11 @@ class Report:
             "broker": None if b is None else {
                 "mode": b.mode, "keyframes": b.keyframes, "features_sent": b.features_sent,
                 "scans_sent": b.scans_sent, "scan_bytes_sent": b.scan_bytes_sent},
+            "map": None if self.map is None else {
+                "keyframes": self.map.keyframes, "known_volume_m3": self.map.known_volume_m3,
+                "entropy_bits": self.map.entropy_bits,
+                "entropy_drop_bits": self.box_voxels() - self.map.entropy_bits,
+                "resolution_m": self.map.resolution_m, "rebuilds": self.map.rebuilds},
             "nodelets": {name: {"level": self.levels[name], "flow": flow}
                          for name, flow in sorted(self.flows.items())},
             "keyframe_list": self.keyframes,
@@ -96,12 +112,14 @@ def main():
     rospy.set_param("/demo/ready", True)
     while not rospy.get_param("/demo/playback_done", False) and time.monotonic() < deadline:
         time.sleep(0.1)
-    # Diagnostics and broker statistics are periodic (1 s): wait until they cover every keyframe.
-    settle = time.monotonic() + 10.0
+    # Diagnostics, broker and map statistics are periodic (1-2 s; the map inserts ~7 keyframes a
+    # second): wait until they cover every keyframe.
+    settle = time.monotonic() + 20.0
     while time.monotonic() < settle:
         flows = report.flows.get("broker", {})
         if (report.broker and report.broker.keyframes == len(report.keyframes)
-                and flows.get("in keyframes messages") == len(report.keyframes)):
+                and flows.get("in keyframes messages") == len(report.keyframes)
+                and report.map and report.map.keyframes == len(report.keyframes)):
             break
         time.sleep(0.1)
     # One more diagnostics report from every nodelet, so each one's last counts are in.

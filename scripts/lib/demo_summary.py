@@ -30,7 +30,8 @@ def main():
             "features_to_outbox": report["features_to_outbox"],
             "word_sets": matcher.get("out features messages", 0),
             "own_loop_closures": matcher.get("out loop_closures (own) messages", 0),
-            "scans_to_outbox": len(report["scans_to_outbox"]), "pipeline": report["nodelets"]})
+            "scans_to_outbox": len(report["scans_to_outbox"]), "map": report.get("map"),
+            "pipeline": report["nodelets"]})
     world = mission["world"]
     result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
               "seed": mission["parameters"]["seed"], "robots": robots}
@@ -39,16 +40,19 @@ def main():
     lines = ["%s %.0f x %.0f m, %d robots, %.0f s, seed %d" % (
         world["kind"], world["size_x_m"], world["size_y_m"], len(robots), result["duration_s"],
         result["seed"])]
-    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s" % (
+    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s %8s %9s" % (
         "robot", "path m", "shared", "scans", "keyframes", "spacing m", "word", "own", "features",
-        "scans"))
-    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s" % (
-        "", "", "", "in", "", "mean", "sets", "loops", "outbox", "outbox"))
+        "scans", "map", "entropy"))
+    lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s %8s %9s" % (
+        "", "", "", "in", "", "mean", "sets", "loops", "outbox", "outbox", "known m3",
+        "drop Mbit"))
     for r in robots:
-        lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %6d %6d %9d %7d" % (
+        m = r["map"] or {}
+        lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %6d %6d %9d %7d %8.0f %9s" % (
             r["name"], r["distance_m"], 100 * r["shared_fraction"], r["scans_in"], r["keyframes"],
             r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
-            r["features_to_outbox"], r["scans_to_outbox"]))
+            r["features_to_outbox"], r["scans_to_outbox"], m.get("known_volume_m3", 0),
+            "-" if not m else "%.2f" % (m["entropy_drop_bits"] / 1e6)))
     total_scans = sum(r["scans_in"] for r in robots)
     total_keyframes = sum(r["keyframes"] for r in robots)
     with open(args.out + "/summary.txt", "w") as f:
