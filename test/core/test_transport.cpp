@@ -11,6 +11,7 @@
 #include <numeric>
 #include <random>
 
+#include "ccir_mapping/core/transport/compression.h"
 #include "ccir_mapping/core/transport/frame_codec.h"
 #include "ccir_mapping/core/transport/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
@@ -411,6 +412,27 @@ TEST(LinkEmulator, KeepsOrderRateDelayLossOutagesAndItsSeed) {
   LinkEmulatorParams bad;
   bad.loss = 2.0;
   EXPECT_THROW(LinkEmulator{bad}, std::invalid_argument);
+}
+
+TEST(Compression, RoundTripsAndRefusesBombsAndGarbage) {
+  // A scan-like message: floats with repeated structure.
+  std::vector<std::uint8_t> message;
+  for (int i = 0; i < 50000; ++i)
+    message.push_back(static_cast<std::uint8_t>((i % 16) * (i / 4096)));
+  const auto packed = compress(message);
+  EXPECT_LT(packed.size(), message.size() / 4);
+  const auto unpacked = decompress(packed, message.size());
+  ASSERT_TRUE(unpacked);
+  EXPECT_EQ(*unpacked, message);
+  EXPECT_FALSE(decompress(packed, message.size() - 1)) << "states more than the bound";
+  auto truncated = packed;
+  truncated.pop_back();
+  EXPECT_FALSE(decompress(truncated, message.size()));
+  EXPECT_FALSE(decompress(std::vector<std::uint8_t>(100, 7), 1 << 20));
+  EXPECT_FALSE(decompress({}, 1 << 20));
+  const auto empty = decompress(compress({}), 10);
+  ASSERT_TRUE(empty);
+  EXPECT_TRUE(empty->empty());
 }
 
 }  // namespace
