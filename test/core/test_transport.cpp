@@ -16,6 +16,7 @@
 #include "ccir_mapping/core/transport/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 #include "ccir_mapping/core/transport/message_fragments.h"
+#include "ccir_mapping/core/transport/peer_session.h"
 #include "ccir_mapping/core/transport/reliable_outbox.h"
 #include "ccir_mapping/core/transport/sequence_filter.h"
 #include "ccir_mapping/core/transport/token_bucket.h"
@@ -433,6 +434,92 @@ TEST(Compression, RoundTripsAndRefusesBombsAndGarbage) {
   const auto empty = decompress(compress({}), 10);
   ASSERT_TRUE(empty);
   EXPECT_TRUE(empty->empty());
+}
+
+/// Two sessions joined by a byte pipe each way; a direction that is down drops what is on it.
+struct Pair {
+  PeerSession a{"robot_a", "robot_b", kKey, SessionParams{}, 0.0};
+  PeerSession b{"robot_b", "robot_a", kKey, SessionParams{}, 0.0};
+  std::vector<InboxMessage> at_a;
+  std::vector<InboxMessage> at_b;
+  bool ok = true;
+
+  void step(double t, bool a_to_b, bool b_to_a) {
+    const auto ab = a.output(t);
+    const auto ba = b.output(t);
+    if (a_to_b) ok = ok && b.input(ab.data(), ab.size(), t, at_b);
+    if (b_to_a) ok = ok && a.input(ba.data(), ba.size(), t, at_a);
+  }
+};
+
+TopicInfo scanTopic() {
+  TopicInfo t;
+  t.name = "inbox/scans";
+  t.type = "ccir_mapping/Keyframe";
+  t.md5 = "0123456789abcdef0123456789abcdef";
+  t.definition = "uint64 id\n";
+  t.policy = {Priority::kBulk, QueuePolicy::kFifo, 0.0, 1000};
+  return t;
+}
+
+TEST(PeerSession, ReliableTopicArrivesExactlyOnceInOrderAcrossAReconnect) {
+  Pair link;
+  const std::uint16_t scans = link.a.addTopic(scanTopic());
+  link.b.addTopic(scanTopic());  // b announces too; nothing is sent on it
+  link.a.connected(0.0);
+  link.b.connected(0.0);
+  // A message every 50 ms for 3 s, then 3 s more (ms steps). From 1.0 s to 1.5 s only the
+  // acknowledgements are lost; from 2.0 s to 2.3 s the link is down both ways (a message
+  // half-sent). Both sides reconnect at 1.5 s and 2.3 s.
+  for (int ms = 0; ms < 6000; ++ms) {
+    const double t = ms / 1000.0;
+    if (ms % 50 == 0 && ms < 3000) {
+      link.a.send(scans, std::vector<std::uint8_t>(5000, static_cast<std::uint8_t>(ms / 50 + 1)),
+                  t);
+    }
+    if (ms == 1500 || ms == 2300) {
+      link.a.connected(t);
+      link.b.connected(t);
+    }
+    const bool down = ms >= 2000 && ms < 2300;
+    link.step(t, !down, !down && (ms < 1000 || ms >= 1500));
+  }
+  ASSERT_TRUE(link.ok) << link.a.reason() << link.b.reason();
+  ASSERT_EQ(link.at_b.size(), 60U);
+  for (std::size_t i = 0; i < link.at_b.size(); ++i) {
+    EXPECT_EQ(link.at_b[i].bytes,
+              std::vector<std::uint8_t>(5000, static_cast<std::uint8_t>(i + 1)));
+    EXPECT_EQ(link.at_b[i].topic.name, "inbox/scans");
+    EXPECT_EQ(link.at_b[i].topic.md5, scanTopic().md5);
+  }
+  // The 10 delivered while their acknowledgements were lost came again and were dropped.
+  EXPECT_EQ(link.b.duplicatesDropped(), 10U);
+  EXPECT_TRUE(link.at_a.empty());
+}
+
+TEST(PeerSession, RefusesAForeignKeyAnotherRobotAndDataBeforeHello) {
+  PeerSession a("robot_a", "robot_b", kKey, SessionParams{}, 0.0);
+  a.addTopic(scanTopic());
+  a.connected(0.0);
+  const auto bytes = a.output(0.0);
+  std::vector<InboxMessage> inbox;
+  PeerSession foreign("robot_b", "robot_a", "not the team key", SessionParams{}, 0.0);
+  foreign.connected(0.0);
+  EXPECT_FALSE(foreign.input(bytes.data(), bytes.size(), 0.0, inbox));
+  EXPECT_EQ(foreign.reason(), "bad mac");
+  PeerSession expects_c("robot_b", "robot_c", kKey, SessionParams{}, 0.0);
+  expects_c.connected(0.0);
+  EXPECT_FALSE(expects_c.input(bytes.data(), bytes.size(), 0.0, inbox));
+  EXPECT_NE(expects_c.reason().find("robot_c"), std::string::npos) << expects_c.reason();
+  Frame data = sampleFrame(10);
+  const auto rogue = encodeFrame(data, kKey);
+  PeerSession b("robot_b", "robot_a", kKey, SessionParams{}, 0.0);
+  b.connected(0.0);
+  EXPECT_FALSE(b.input(rogue.data(), rogue.size(), 0.0, inbox));
+  EXPECT_NE(b.reason().find("HELLO"), std::string::npos);
+  EXPECT_FALSE(b.input(bytes.data(), bytes.size(), 0.0, inbox)) << "stays refused";
+  EXPECT_TRUE(inbox.empty());
+  EXPECT_THROW(a.send(7, {}, 0.0), std::invalid_argument);
 }
 
 }  // namespace

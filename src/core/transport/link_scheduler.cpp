@@ -25,7 +25,8 @@ void LinkScheduler::setTopic(std::uint16_t topic, const TopicPolicy& policy) {
 }
 
 std::uint64_t LinkScheduler::enqueue(std::uint16_t topic, std::vector<std::uint8_t> message,
-                                     double now_s) {
+                                     double now_s, FrameType type,
+                                     std::optional<std::uint64_t> sequence) {
   const auto it = topics_.find(topic);
   if (it == topics_.end()) throw std::invalid_argument("LinkScheduler: unknown topic");
   Topic& t = it->second;
@@ -40,8 +41,9 @@ std::uint64_t LinkScheduler::enqueue(std::uint16_t topic, std::vector<std::uint8
     queue.erase(std::find_if(queue.begin(), queue.end(), same_topic));
     ++counters_.dropped_queue_full;
   }
-  queue.push_back({topic, ++t.last_sequence, now_s, std::move(message)});
-  return t.last_sequence;
+  const std::uint64_t seq = sequence ? *sequence : ++t.last_sequence;
+  queue.push_back({topic, type, seq, now_s, std::move(message)});
+  return seq;
 }
 
 void LinkScheduler::dropExpired(double now_s) {
@@ -75,6 +77,7 @@ void LinkScheduler::start(Priority priority) {
   if (!frames.empty() || queue.empty()) return;
   const Message& m = queue.front();
   for (auto& f : fragmentMessage(m.topic, m.sequence, m.bytes, fragment_bytes_)) {
+    f.type = m.type;
     frames.push_back(std::move(f));
   }
   queue.pop_front();
@@ -99,6 +102,11 @@ std::optional<Frame> LinkScheduler::next(double now_s) {
   counters_.bytes_sent += bytes;
   counters_.messages_sent += frame.fragment + 1 == frame.fragments;
   return frame;
+}
+
+void LinkScheduler::clear() {
+  waiting_.clear();
+  in_flight_.clear();
 }
 
 std::size_t LinkScheduler::queued(Priority priority) const {

@@ -47,8 +47,13 @@ class LinkScheduler {
 
   void setTopic(std::uint16_t topic, const TopicPolicy& policy);
   /// Queues a serialised message of a topic set before (else std::invalid_argument); returns
-  /// the sequence number it will carry (per topic, from 1).
-  std::uint64_t enqueue(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s);
+  /// the sequence number it will carry (per topic, from 1). A message sent again after a
+  /// reconnect keeps its `sequence`; `type` is that of all its frames.
+  std::uint64_t enqueue(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s,
+                        FrameType type = FrameType::kData,
+                        std::optional<std::uint64_t> sequence = std::nullopt);
+  /// Forgets everything queued or half-sent (the connection it was for is gone).
+  void clear();
 
   /// The next frame to send at `now_s`, or nullopt when nothing is queued or the bucket has too
   /// few tokens (see delay()).
@@ -62,6 +67,7 @@ class LinkScheduler {
  private:
   struct Message {
     std::uint16_t topic;
+    FrameType type;
     std::uint64_t sequence;
     double enqueued_s;
     std::vector<std::uint8_t> bytes;

@@ -1,0 +1,174 @@
+#include "ccir_mapping/core/transport/peer_session.h"
+
+#include <stdexcept>
+
+namespace ccir_mapping::core::transport {
+namespace {
+
+// TOPIC payload: length-prefixed strings and two flags.
+void putString(std::vector<std::uint8_t>& out, const std::string& s) {
+  const auto n = static_cast<std::uint32_t>(s.size());
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<std::uint8_t>(n >> (8 * i)));
+  out.insert(out.end(), s.begin(), s.end());
+}
+
+bool getString(const std::vector<std::uint8_t>& in, std::size_t& at, std::string& s) {
+  if (in.size() - at < 4) return false;
+  std::uint32_t n = 0;
+  for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(in[at + i]) << (8 * i);
+  at += 4;
+  if (in.size() - at < n) return false;
+  s.assign(in.begin() + static_cast<std::ptrdiff_t>(at),
+           in.begin() + static_cast<std::ptrdiff_t>(at + n));
+  at += n;
+  return true;
+}
+
+std::vector<std::uint8_t> encodeTopic(const TopicInfo& t) {
+  std::vector<std::uint8_t> out;
+  for (const auto* s : {&t.name, &t.type, &t.md5, &t.definition}) putString(out, *s);
+  out.push_back(t.latched);
+  out.push_back(t.reliable);
+  return out;
+}
+
+bool decodeTopic(const std::vector<std::uint8_t>& in, TopicInfo& t) {
+  std::size_t at = 0;
+  for (auto* s : {&t.name, &t.type, &t.md5, &t.definition}) {
+    if (!getString(in, at, *s)) return false;
+  }
+  if (in.size() - at != 2) return false;
+  t.latched = in[at] != 0;
+  t.reliable = in[at + 1] != 0;
+  return true;
+}
+
+// ACK payload: the topic (2 bytes) and the highest sequence delivered (8 bytes).
+std::vector<std::uint8_t> encodeAck(std::uint16_t topic, std::uint64_t sequence) {
+  std::vector<std::uint8_t> out = {static_cast<std::uint8_t>(topic),
+                                   static_cast<std::uint8_t>(topic >> 8)};
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(sequence >> (8 * i)));
+  return out;
+}
+
+}  // namespace
+
+PeerSession::PeerSession(std::string own_robot, std::string peer_robot, std::string team_key,
+                         const SessionParams& params, double now_s)
+    : own_(std::move(own_robot)),
+      peer_(std::move(peer_robot)),
+      key_(std::move(team_key)),
+      params_(params),
+      scheduler_(params.budget_bytes_per_s, params.burst_bytes, params.fragment_bytes, now_s),
+      decoder_(key_, params.max_message_bytes),
+      reassembler_(params.max_message_bytes, 64),
+      outbox_(params.max_unacknowledged_bytes) {
+  scheduler_.setTopic(kSessionTopic, {Priority::kControl, QueuePolicy::kFifo, 0.0, 100000});
+}
+
+std::uint16_t PeerSession::addTopic(const TopicInfo& topic) {
+  if (topics_.size() >= 0xfffe) throw std::invalid_argument("PeerSession: too many topics");
+  topics_.push_back(topic);
+  const auto id = static_cast<std::uint16_t>(topics_.size());
+  scheduler_.setTopic(id, topic.policy);
+  return id;
+}
+
+void PeerSession::send(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s) {
+  if (topic == kSessionTopic || topic > topics_.size()) {
+    throw std::invalid_argument("PeerSession: unknown topic");
+  }
+  const bool reliable = topics_[topic - 1].reliable;
+  const std::vector<std::uint8_t> copy = reliable ? message : std::vector<std::uint8_t>{};
+  const std::uint64_t sequence = scheduler_.enqueue(topic, std::move(message), now_s);
+  if (reliable) outbox_.sent(topic, sequence, copy);
+}
+
+void PeerSession::connected(double now_s) {
+  scheduler_.clear();
+  decoder_ = FrameDecoder(key_, params_.max_message_bytes);
+  reassembler_ = Reassembler(params_.max_message_bytes, 64);
+  peer_topics_.clear();
+  peer_said_hello_ = false;
+  reason_.clear();
+  scheduler_.enqueue(kSessionTopic, std::vector<std::uint8_t>(own_.begin(), own_.end()), now_s,
+                     FrameType::kHello);
+  for (std::size_t i = 0; i < topics_.size(); ++i) {
+    // The announcement travels on the session topic; its sequence names the topic id.
+    scheduler_.enqueue(kSessionTopic, encodeTopic(topics_[i]), now_s, FrameType::kTopic, i + 1);
+  }
+  for (auto& m : outbox_.unacknowledged()) {
+    scheduler_.enqueue(m.topic, std::move(m.bytes), now_s, FrameType::kData, m.sequence);
+  }
+}
+
+std::vector<std::uint8_t> PeerSession::output(double now_s) {
+  std::vector<std::uint8_t> bytes;
+  while (auto frame = scheduler_.next(now_s)) {
+    const auto encoded = encodeFrame(*frame, key_);
+    bytes.insert(bytes.end(), encoded.begin(), encoded.end());
+  }
+  return bytes;
+}
+
+bool PeerSession::refuse(std::string reason) {
+  reason_ = std::move(reason);
+  return false;
+}
+
+bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s,
+                        std::vector<InboxMessage>& inbox) {
+  if (!reason_.empty()) return false;
+  decoder_.feed(data, size);
+  std::map<std::uint16_t, std::uint64_t> to_acknowledge;
+  while (auto frame = decoder_.next()) {
+    if (!peer_said_hello_ && frame->type != FrameType::kHello) {
+      return refuse("the peer did not say HELLO first");
+    }
+    switch (frame->type) {
+      case FrameType::kHello: {
+        const std::string name(frame->payload.begin(), frame->payload.end());
+        if (name != peer_) return refuse("the peer says it is '" + name + "', not " + peer_);
+        peer_said_hello_ = true;
+        break;
+      }
+      case FrameType::kTopic: {
+        TopicInfo t;
+        if (!decodeTopic(frame->payload, t) || frame->sequence == 0 || frame->sequence > 0xffff) {
+          return refuse("a malformed topic announcement");
+        }
+        peer_topics_[static_cast<std::uint16_t>(frame->sequence)] = t;
+        break;
+      }
+      case FrameType::kAck: {
+        const auto& p = frame->payload;
+        if (p.size() != 10) return refuse("a malformed acknowledgement");
+        std::uint64_t sequence = 0;
+        for (std::size_t i = 0; i < 8; ++i) {
+          sequence |= static_cast<std::uint64_t>(p[2 + i]) << (8 * i);
+        }
+        outbox_.acknowledge(static_cast<std::uint16_t>(p[0] | (p[1] << 8)), sequence);
+        break;
+      }
+      case FrameType::kData: {
+        const auto topic = peer_topics_.find(frame->topic);
+        if (topic == peer_topics_.end()) return refuse("data on a topic never announced");
+        auto message = reassembler_.add(*frame);
+        if (!message) break;
+        if (topic->second.reliable) {
+          if (!filter_.accept(peer_, frame->topic, frame->sequence)) break;
+          to_acknowledge[frame->topic] = filter_.delivered(peer_, frame->topic);
+        }
+        inbox.push_back({topic->second, std::move(*message)});
+        break;
+      }
+    }
+  }
+  if (decoder_.error() != FrameError::kNone) return refuse(toString(decoder_.error()));
+  for (const auto& [topic, sequence] : to_acknowledge) {
+    scheduler_.enqueue(kSessionTopic, encodeAck(topic, sequence), now_s, FrameType::kAck);
+  }
+  return true;
+}
+
+}  // namespace ccir_mapping::core::transport
