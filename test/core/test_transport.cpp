@@ -464,10 +464,11 @@ TopicInfo scanTopic() {
 
 TEST(PeerSession, ReliableTopicArrivesExactlyOnceInOrderAcrossAReconnect) {
   Pair link;
-  const std::uint16_t scans = link.a.addTopic(scanTopic());
-  link.b.addTopic(scanTopic());  // b announces too; nothing is sent on it
+  link.b.addTopic(scanTopic(), 0.0);  // b announces one too; nothing is sent on it
   link.a.connected(0.0);
   link.b.connected(0.0);
+  // a's topic appears once the link is up: it is announced before its first message.
+  const std::uint16_t scans = link.a.addTopic(scanTopic(), 0.0);
   // A message every 50 ms for 3 s, then 3 s more (ms steps). From 1.0 s to 1.5 s only the
   // acknowledgements are lost; from 2.0 s to 2.3 s the link is down both ways (a message
   // half-sent). Both sides reconnect at 1.5 s and 2.3 s.
@@ -499,7 +500,7 @@ TEST(PeerSession, ReliableTopicArrivesExactlyOnceInOrderAcrossAReconnect) {
 
 TEST(PeerSession, RefusesAForeignKeyAnotherRobotAndDataBeforeHello) {
   PeerSession a("robot_a", "robot_b", kKey, SessionParams{}, 0.0);
-  a.addTopic(scanTopic());
+  a.addTopic(scanTopic(), 0.0);
   a.connected(0.0);
   const auto bytes = a.output(0.0);
   std::vector<InboxMessage> inbox;

@@ -66,11 +66,18 @@ PeerSession::PeerSession(std::string own_robot, std::string peer_robot, std::str
   scheduler_.setTopic(kSessionTopic, {Priority::kControl, QueuePolicy::kFifo, 0.0, 100000});
 }
 
-std::uint16_t PeerSession::addTopic(const TopicInfo& topic) {
+void PeerSession::announce(std::uint16_t id, double now_s) {
+  // The announcement travels on the session topic; its sequence names the topic id.
+  scheduler_.enqueue(kSessionTopic, encodeTopic(topics_[id - 1]), now_s, FrameType::kTopic, id);
+}
+
+std::uint16_t PeerSession::addTopic(const TopicInfo& topic, double now_s) {
   if (topics_.size() >= 0xfffe) throw std::invalid_argument("PeerSession: too many topics");
   topics_.push_back(topic);
   const auto id = static_cast<std::uint16_t>(topics_.size());
   scheduler_.setTopic(id, topic.policy);
+  // Announced on every connection; now too if one is up (before any of its data).
+  if (connected_) announce(id, now_s);
   return id;
 }
 
@@ -93,10 +100,9 @@ void PeerSession::connected(double now_s) {
   reason_.clear();
   scheduler_.enqueue(kSessionTopic, std::vector<std::uint8_t>(own_.begin(), own_.end()), now_s,
                      FrameType::kHello);
-  for (std::size_t i = 0; i < topics_.size(); ++i) {
-    // The announcement travels on the session topic; its sequence names the topic id.
-    scheduler_.enqueue(kSessionTopic, encodeTopic(topics_[i]), now_s, FrameType::kTopic, i + 1);
-  }
+  connected_ = true;
+  for (std::size_t i = 0; i < topics_.size(); ++i)
+    announce(static_cast<std::uint16_t>(i + 1), now_s);
   for (auto& m : outbox_.unacknowledged()) {
     scheduler_.enqueue(m.topic, std::move(m.bytes), now_s, FrameType::kData, m.sequence);
   }

@@ -52,8 +52,8 @@ class PeerSession {
   PeerSession(std::string own_robot, std::string peer_robot, std::string team_key,
               const SessionParams& params, double now_s);
 
-  /// A local topic to forward; returns its id on the link.
-  std::uint16_t addTopic(const TopicInfo& topic);
+  /// A local topic to forward (announced at once if connected); returns its id on the link.
+  std::uint16_t addTopic(const TopicInfo& topic, double now_s);
   /// A message of a topic added before.
   void send(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s);
 
@@ -78,6 +78,7 @@ class PeerSession {
   static constexpr std::uint16_t kSessionTopic = 0;
 
   bool refuse(std::string reason);
+  void announce(std::uint16_t id, double now_s);
   void handle(const Frame& frame, double now_s, std::vector<InboxMessage>& inbox);
 
   std::string own_;
@@ -91,6 +92,7 @@ class PeerSession {
   SequenceFilter filter_;
   std::vector<TopicInfo> topics_;  // id - 1
   std::map<std::uint16_t, TopicInfo> peer_topics_;
+  bool connected_ = false;
   bool peer_said_hello_ = false;
   std::string reason_;
 };
