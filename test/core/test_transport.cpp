@@ -218,6 +218,15 @@ TEST(MessageFragments, ReassembleInAnyOrderWithinBounds) {
   for (std::uint64_t seq = 10; seq < 13; ++seq) few.add(fragmentMessage(6, seq, message, 65536)[0]);
   EXPECT_EQ(few.partialMessages(), 2U);
   EXPECT_EQ(few.droppedMessages(), 1U);
+  // Incomplete messages hold at most twice the largest message together.
+  Reassembler bounded(150000, 100);
+  for (std::uint64_t seq = 20; seq < 30; ++seq) {
+    const auto frames = fragmentMessage(7, seq, std::vector<std::uint8_t>(140000), 65536);
+    bounded.add(frames[0]);
+    bounded.add(frames[1]);
+    EXPECT_LE(bounded.partialBytes(), 300000U);
+  }
+  EXPECT_GE(bounded.droppedMessages(), 7U);
   // A fragment that disagrees on the count is dropped.
   auto odd = fragmentMessage(6, 11, message, 65536)[1];
   odd.fragments = 9;

@@ -44,14 +44,7 @@ std::optional<std::vector<std::uint8_t>> Reassembler::add(const Frame& frame) {
   const auto key = std::make_pair(frame.topic, frame.sequence);
   auto it = partial_.find(key);
   if (it == partial_.end()) {
-    if (partial_.size() >= max_partial_messages_) {
-      // Make room: the message that started longest ago is given up.
-      const auto oldest = std::min_element(partial_.begin(), partial_.end(), [](auto& a, auto& b) {
-        return a.second.arrival < b.second.arrival;
-      });
-      partial_.erase(oldest);
-      ++dropped_messages_;
-    }
+    if (partial_.size() >= max_partial_messages_) dropOldest(partial_.end());
     Partial p;
     p.fragments.resize(frame.fragments);
     p.received.assign(frame.fragments, false);
@@ -67,13 +60,31 @@ std::optional<std::vector<std::uint8_t>> Reassembler::add(const Frame& frame) {
   }
   p.received[frame.fragment] = true;
   p.bytes += frame.payload.size();
+  partial_bytes_ += frame.payload.size();
   p.fragments[frame.fragment] = frame.payload;
+  // Over the joint bound: give up the oldest other incomplete messages (this one holds at most
+  // max_message_bytes, so the others hold the excess).
+  while (partial_bytes_ > 2 * max_message_bytes_ && partial_.size() > 1) dropOldest(it);
   if (--p.missing > 0) return std::nullopt;
   std::vector<std::uint8_t> message;
   message.reserve(p.bytes);
   for (const auto& f : p.fragments) message.insert(message.end(), f.begin(), f.end());
+  partial_bytes_ -= p.bytes;
   partial_.erase(it);
   return message;
+}
+
+void Reassembler::dropOldest(PartialMap::const_iterator keep) {
+  auto oldest = partial_.end();
+  for (auto i = partial_.begin(); i != partial_.end(); ++i) {
+    if (i != keep && (oldest == partial_.end() || i->second.arrival < oldest->second.arrival)) {
+      oldest = i;
+    }
+  }
+  if (oldest == partial_.end()) return;
+  partial_bytes_ -= oldest->second.bytes;
+  partial_.erase(oldest);
+  ++dropped_messages_;
 }
 
 }  // namespace ccir_mapping::core::transport

@@ -20,8 +20,9 @@ std::vector<Frame> fragmentMessage(std::uint16_t topic, std::uint64_t sequence,
                                    const std::vector<std::uint8_t>& message,
                                    std::size_t fragment_bytes, std::uint8_t flags = 0);
 
-/// Puts fragments back together, in any order; bounded in message size and in how many
-/// messages may be incomplete at once (the oldest incomplete one is dropped).
+/// Puts fragments back together, in any order; bounded in message size, in how many messages
+/// may be incomplete at once and in the bytes they hold together (twice the largest message):
+/// to make room the oldest incomplete message is dropped. A sender interleaves at most a few.
 class Reassembler {
  public:
   Reassembler(std::size_t max_message_bytes, std::size_t max_partial_messages);
@@ -33,6 +34,7 @@ class Reassembler {
   std::size_t droppedFragments() const { return dropped_fragments_; }
   std::size_t droppedMessages() const { return dropped_messages_; }
   std::size_t partialMessages() const { return partial_.size(); }
+  std::size_t partialBytes() const { return partial_bytes_; }
 
  private:
   struct Partial {
@@ -45,8 +47,13 @@ class Reassembler {
 
   std::size_t max_message_bytes_;
   std::size_t max_partial_messages_;
-  std::map<std::pair<std::uint16_t, std::uint64_t>, Partial> partial_;
+  using PartialMap = std::map<std::pair<std::uint16_t, std::uint64_t>, Partial>;
+  /// Drops the incomplete message that started longest ago, other than `keep`.
+  void dropOldest(PartialMap::const_iterator keep);
+
+  PartialMap partial_;
   std::uint64_t arrivals_ = 0;
+  std::size_t partial_bytes_ = 0;
   std::size_t dropped_fragments_ = 0;
   std::size_t dropped_messages_ = 0;
 };
