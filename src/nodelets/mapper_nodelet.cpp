@@ -7,7 +7,6 @@
 #include <thread>
 
 #include <nav_msgs/Path.h>
-#include <pcl/common/transforms.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
@@ -135,9 +134,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   static void integrate(info::OccupancyMap& map, const info::PlacedScan& scan) {
-    info::Cloud world;
-    pcl::transformPointCloud(*scan.cloud, world, scan.map_from_sensor.matrix().cast<float>());
-    map.insert(map.computeUpdate(world, scan.map_from_sensor.translation()));
+    map.insert(map.computeUpdate(*scan.cloud, scan.map_from_sensor));
   }
 
   void onTimer(const ros::SteadyTimerEvent&) {
@@ -168,16 +165,8 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void publishCloud(const std_msgs::Header& header) {
-    pcl::PointCloud<pcl::PointXYZ> occupied;
-    map_->read([&](const info::OccupancyMap& map) {
-      const auto& tree = map.tree();
-      for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-        if (tree.isNodeOccupied(*it)) {
-          occupied.push_back(pcl::PointXYZ(it.getX(), it.getY(), it.getZ()));
-        }
-      }
-      return 0;
-    });
+    const auto occupied =
+        map_->read([](const info::OccupancyMap& map) { return map.occupiedCentres(); });
     auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
     pcl::toROSMsg(occupied, *cloud);
     cloud->header = header;

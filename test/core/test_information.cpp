@@ -7,6 +7,8 @@
 #include <limits>
 #include <random>
 
+#include <pcl/common/transforms.h>
+
 #include "ccir_mapping/core/information/csqmi.h"
 #include "ccir_mapping/core/information/keyframe_map.h"
 #include "ccir_mapping/core/information/occupancy_map.h"
@@ -156,8 +158,31 @@ TEST(OccupancyMap, InsertingAScanLowersEntropyByItsPerVoxelDrops) {
   double gains = 0;
   for (const auto& [key, gain] : map.voxelGains(update)) gains += gain;
   EXPECT_NEAR(gains, predicted, 1e-6 * predicted) << "no voxel of an empty map gains entropy";
+  // A scan given in its sensor frame with the sensor's pose: the rays start at the sensor.
+  Pose3 sensor(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ()));
+  sensor.translation() << 1.0, -0.5, 0.3;
+  pcl::PointCloud<pcl::PointXYZ> in_sensor;
+  pcl::transformPointCloud(roomScan(sensor.translation()), in_sensor,
+                           sensor.inverse().matrix().cast<float>());
+  pcl::PointCloud<pcl::PointXYZ> back;
+  pcl::transformPointCloud(in_sensor, back, sensor.matrix().cast<float>());
+  const auto posed = map.computeUpdate(in_sensor, sensor);
+  const auto expected = map.computeUpdate(back, sensor.translation());
+  EXPECT_EQ(posed.occupied, expected.occupied);
+  EXPECT_EQ(posed.free, expected.free);
+  EXPECT_NE(posed.free, map.computeUpdate(back, Eigen::Vector3d::Zero()).free);
+  Pose3 nan_sensor = sensor;
+  nan_sensor(0, 0) = std::nan("");
+  EXPECT_THROW(map.computeUpdate(in_sensor, nan_sensor), std::invalid_argument);
   map.insert(update);
   EXPECT_NEAR(empty - map.entropyBits(box), predicted, 1e-6 * predicted);
+  // Its occupied voxels lie on the room's walls, floor and ceiling.
+  const auto occupied = map.occupiedCentres();
+  ASSERT_EQ(occupied.size(), update.occupied.size());
+  for (const auto& p : occupied) {
+    const double to_wall = std::min({5 - std::abs(p.x), 4 - std::abs(p.y), p.z + 1, 2 - p.z});
+    ASSERT_LT(std::abs(to_wall), 0.2) << p.x << " " << p.y << " " << p.z;
+  }
   const double voxel_m3 = std::pow(0.2, 3);
   EXPECT_NEAR(map.knownVolumeM3(box), (update.free.size() + update.occupied.size()) * voxel_m3,
               1e-9);
@@ -210,6 +235,11 @@ TEST(OccupancyMap, BadInputIsDroppedAndCounted) {
   Pose3 nan_pose = Pose3::Identity();
   nan_pose.translation().x() = std::nan("");
   EXPECT_THROW(map.simulatedCsqmi(nan_pose), std::invalid_argument);
+  // A box OctoMap cannot address would be measured as empty: refused, naming the parameter.
+  MapperParams far = params();
+  far.entropy_box_half_width_m = 7000.0;  // beyond 32767 x 0.2 m
+  ASSERT_FALSE(far.validate().empty());
+  EXPECT_NE(far.validate().front().find("entropy_box_half_width_m"), std::string::npos);
   MapperParams bad = params();
   bad.resolution_m = 0;
   try {

@@ -1,5 +1,8 @@
 #include "ccir_mapping/core/information/mapper_params.h"
 
+#include <cmath>
+#include <string>
+
 #include "ccir_mapping/core/common/param_check.h"
 
 namespace ccir_mapping::core::information {
@@ -20,6 +23,13 @@ std::vector<std::string> MapperParams::validate() const {
   check.inRange("entropy_box_max_z_m", entropy_box_max_z_m, -1000.0, 1000.0);
   check.require(entropy_box_min_z_m < entropy_box_max_z_m,
                 "entropy_box_min_z_m must be below entropy_box_max_z_m");
+  // OctoMap addresses +-32768 voxels from the origin; a box beyond would be measured as empty.
+  const double reach_m = 32767.0 * resolution_m;
+  check.require(entropy_box_half_width_m < reach_m && std::abs(entropy_box_min_z_m) < reach_m &&
+                    std::abs(entropy_box_max_z_m) < reach_m,
+                "entropy_box_half_width_m, entropy_box_min_z_m and entropy_box_max_z_m must stay "
+                "within the map's reach (32767 x resolution_m = " +
+                    std::to_string(reach_m) + " m)");
   check.inRange("publish_period_s", publish_period_s, 0.05, 3600.0);
   return check.errors();
 }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <pcl/common/transforms.h>
+
 #include "ccir_mapping/core/common/param_check.h"
 
 namespace ccir_mapping::core::information {
@@ -55,6 +57,25 @@ ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& poi
   std::sort(update.free.begin(), update.free.end(), less);
   std::sort(update.occupied.begin(), update.occupied.end(), less);
   return update;
+}
+
+ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                                       const Pose3& map_from_sensor) const {
+  if (!map_from_sensor.matrix().allFinite()) {
+    throw std::invalid_argument("computeUpdate: non-finite sensor pose");
+  }
+  pcl::PointCloud<pcl::PointXYZ> map_points;
+  pcl::transformPointCloud(sensor_points, map_points, map_from_sensor.matrix().cast<float>());
+  return computeUpdate(map_points, map_from_sensor.translation());
+}
+
+pcl::PointCloud<pcl::PointXYZ> OccupancyMap::occupiedCentres() const {
+  pcl::PointCloud<pcl::PointXYZ> centres;
+  for (auto it = tree_.begin_leafs(), end = tree_.end_leafs(); it != end; ++it) {
+    if (tree_.isNodeOccupied(*it))
+      centres.push_back(pcl::PointXYZ(it.getX(), it.getY(), it.getZ()));
+  }
+  return centres;
 }
 
 void OccupancyMap::insert(const ScanUpdate& update) {

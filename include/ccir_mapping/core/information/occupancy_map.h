@@ -46,6 +46,9 @@ class OccupancyMap {
   /// space up to that range only. Non-finite points are skipped and counted.
   ScanUpdate computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
                            const Eigen::Vector3d& origin) const;
+  /// The same for a scan in its sensor frame with the sensor's pose in the map frame.
+  ScanUpdate computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                           const Pose3& map_from_sensor) const;
   /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped.
   void insert(const ScanUpdate& update);
 
@@ -73,6 +76,9 @@ class OccupancyMap {
   double simulatedCsqmi(const Pose3& sensor_pose) const;
   /// The cells one beam crosses (for beamsCsqmi and tests).
   BeamCells beamCells(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+
+  /// Centres of the occupied voxels (pruned leaves give their centre), map frame.
+  pcl::PointCloud<pcl::PointXYZ> occupiedCentres() const;
 
   /// Occupancy probability of the voxel holding `key` (0.5 if unknown).
   double occupancy(const octomap::OcTreeKey& key) const;
