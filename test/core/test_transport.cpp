@@ -311,6 +311,45 @@ TEST(LinkScheduler, SaturatedLinkStaysInBudgetAndControlStaysFast) {
   EXPECT_LE(link.queued(Priority::kBulk), 10U);
 }
 
+TEST(LinkScheduler, LinksSharingATotalBudgetStayWithinItTogether) {
+  // Two links of 150 KB/s each under a total of 100 KB/s, both saturated with scans for 20 s.
+  auto total = std::make_shared<TokenBucket>(100000.0, 131072.0, 0.0);
+  std::vector<LinkScheduler> links = {mineLink(), mineLink()};
+  std::vector<std::pair<double, std::size_t>> sent;
+  std::vector<std::size_t> per_link(2, 0);
+  for (auto& link : links) link.shareBucket(total);
+  // Turns of one frame per link, starting after the link that sent last, as the Bridge does.
+  std::size_t turn = 0;
+  for (int ms = 0; ms < 20000; ++ms) {
+    const double t = ms / 1000.0;
+    for (auto& link : links) {
+      if (ms % 500 == 0) link.enqueue(kScans, std::vector<std::uint8_t>(100000, 1), t);
+    }
+    for (bool progress = true; progress;) {
+      progress = false;
+      for (std::size_t k = 0; k < links.size(); ++k) {
+        const std::size_t i = (turn + k) % links.size();
+        if (const auto frame = links[i].next(t)) {
+          sent.emplace_back(t, wireBytes(frame->payload.size()));
+          per_link[i] += wireBytes(frame->payload.size());
+          progress = true;
+          turn = i + 1;
+        }
+      }
+    }
+  }
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    std::size_t bytes = 0;
+    for (std::size_t j = i; j < sent.size() && sent[j].first < sent[i].first + 1.0; ++j)
+      bytes += sent[j].second;
+    ASSERT_LE(bytes, 131072 + 100000) << "in the second from " << sent[i].first;
+  }
+  const double total_bytes = static_cast<double>(per_link[0] + per_link[1]);
+  EXPECT_GT(total_bytes, 0.9 * 100000.0 * 20.0);
+  EXPECT_LE(total_bytes, 131072 + 100000.0 * 20.0);
+  EXPECT_GT(per_link[1], total_bytes / 4) << "one link starved the other";
+}
+
 TEST(LinkScheduler, QueuePoliciesKeepLatestBoundAndExpire) {
   LinkScheduler link(1000.0, 70000, 1000, 0.0);
   link.setTopic(kStats, {Priority::kControl, QueuePolicy::kKeepLatest, 0.0, 1});
@@ -530,6 +569,99 @@ TEST(PeerSession, RefusesAForeignKeyAnotherRobotAndDataBeforeHello) {
   EXPECT_FALSE(b.input(bytes.data(), bytes.size(), 0.0, inbox)) << "stays refused";
   EXPECT_TRUE(inbox.empty());
   EXPECT_THROW(a.send(7, {}, 0.0), std::invalid_argument);
+}
+
+TEST(PeerSession, ARestartedPeerGetsLatchedStateAndItsSequencesAnew) {
+  SessionParams params;
+  Pair link;
+  TopicInfo map = scanTopic();
+  map.name = "inbox/map";
+  map.latched = true;
+  TopicInfo offers = scanTopic();
+  offers.name = "inbox/offers";
+  offers.reliable = false;
+  offers.compressed = true;
+  offers.latched = true;
+  offers.policy.priority = Priority::kControl;
+  const auto map_id = link.a.addTopic(map, 0.0);
+  const auto offers_id = link.a.addTopic(offers, 0.0);
+  // Sent before any connection: the reliable one waits in the outbox; the unreliable one is
+  // not sent then, but as the latest of a latched topic it goes to the next peer to say HELLO.
+  link.a.send(map_id, std::vector<std::uint8_t>(3000, 1), 0.0);
+  link.a.send(offers_id, std::vector<std::uint8_t>(3000, 2), 0.0);
+  EXPECT_EQ(link.a.sessionCounters().dropped_not_connected, 1U);
+  link.a.connected(0.0);
+  link.b.connected(0.0);
+  for (int ms = 0; ms < 200; ++ms) link.step(ms / 1000.0, true, true);
+  ASSERT_TRUE(link.ok);
+  const auto first_bytes = [](const std::vector<InboxMessage>& inbox) {
+    std::vector<int> firsts;
+    for (const auto& m : inbox) firsts.push_back(m.bytes.empty() ? -1 : m.bytes[0]);
+    return firsts;
+  };
+  EXPECT_EQ(first_bytes(link.at_b), (std::vector<int>{1, 2})) << "each latched message once";
+  link.a.send(map_id, std::vector<std::uint8_t>(3000, 3), 0.2);
+  link.a.send(offers_id, std::vector<std::uint8_t>(3000, 4), 0.2);
+  for (int ms = 200; ms < 400; ++ms) link.step(ms / 1000.0, true, true);
+  ASSERT_EQ(first_bytes(link.at_b), (std::vector<int>{1, 2, 4, 3})) << "control first";
+  EXPECT_EQ(link.at_b[2].bytes, std::vector<std::uint8_t>(3000, 4)) << "decompressed";
+  EXPECT_TRUE(link.at_b[2].topic.compressed);
+  EXPECT_LT(link.a.counters().bytes_sent, 3 * 3000 + 2000) << "compressed on the wire";
+
+  // b restarts (a new process, a new incarnation): it gets the latest map again; a's
+  // sequences continue, b's start again and are not taken for duplicates.
+  params.incarnation = 2;
+  PeerSession restarted("robot_b", "robot_a", kKey, params, 0.4);
+  restarted.addTopic(map, 0.4);
+  const auto b_map = restarted.addTopic(map, 0.4);
+  restarted.send(b_map, std::vector<std::uint8_t>(10, 9), 0.4);
+  std::vector<InboxMessage> at_restarted;
+  for (int run = 0; run < 2; ++run) {
+    // The first run is b's first process again (same sequences); the second, the restart.
+    PeerSession& b = run == 0 ? link.b : restarted;
+    auto& inbox = run == 0 ? link.at_b : at_restarted;
+    link.a.disconnected();
+    link.a.connected(0.4);
+    b.connected(0.4);
+    for (int ms = 400; ms < 600; ++ms) {
+      const double t = ms / 1000.0;
+      const auto ab = link.a.output(t);
+      const auto ba = b.output(t);
+      ASSERT_TRUE(b.input(ab.data(), ab.size(), t, inbox)) << b.reason();
+      ASSERT_TRUE(link.a.input(ba.data(), ba.size(), t, link.at_a)) << link.a.reason();
+    }
+  }
+  // Reconnecting to the same process: only the unreliable latched offers again; the
+  // restarted process gets the latest of both.
+  EXPECT_EQ(first_bytes(link.at_b), (std::vector<int>{1, 2, 4, 3, 4}));
+  EXPECT_EQ(first_bytes(at_restarted), (std::vector<int>{4, 3}));
+  ASSERT_EQ(link.at_a.size(), 1U) << "the restarted b's first message is not a duplicate";
+  EXPECT_EQ(link.at_a[0].bytes, std::vector<std::uint8_t>(10, 9));
+}
+
+TEST(PeerSession, KeepAliveIsHeardAndOversizedMessagesAreNotSent) {
+  SessionParams params;
+  params.max_message_bytes = 1000;
+  PeerSession a("robot_a", "robot_b", kKey, params, 0.0);
+  PeerSession b("robot_b", "robot_a", kKey, params, 0.0);
+  const auto scans = a.addTopic(scanTopic(), 0.0);
+  a.connected(0.0);
+  b.connected(0.0);
+  a.send(scans, std::vector<std::uint8_t>(1001, 1), 0.0);
+  EXPECT_EQ(a.sessionCounters().dropped_too_large, 1U);
+  std::vector<InboxMessage> inbox;
+  auto bytes = a.output(0.0);
+  ASSERT_TRUE(b.input(bytes.data(), bytes.size(), 0.0, inbox));
+  EXPECT_EQ(b.sessionCounters().last_heard_s, 0.0);
+  a.keepAlive(5.0);
+  bytes = a.output(5.0);
+  EXPECT_EQ(bytes.size(), wireBytes(10));
+  ASSERT_TRUE(b.input(bytes.data(), bytes.size(), 5.0, inbox));
+  EXPECT_EQ(b.sessionCounters().last_heard_s, 5.0);
+  EXPECT_TRUE(inbox.empty());
+  a.disconnected();
+  a.keepAlive(6.0);
+  EXPECT_TRUE(a.output(6.0).empty());
 }
 
 }  // namespace

@@ -88,14 +88,20 @@ double LinkScheduler::delay(double now_s) {
   const auto priority = nextClass();
   if (!priority) return std::numeric_limits<double>::infinity();
   start(*priority);
-  return bucket_.delayFor(wireBytes(in_flight_[*priority].front().payload.size()), now_s);
+  const std::size_t bytes = wireBytes(in_flight_[*priority].front().payload.size());
+  const double link = bucket_.delayFor(bytes, now_s);
+  return total_ ? std::max(link, total_->delayFor(bytes, now_s)) : link;
 }
 
 std::optional<Frame> LinkScheduler::next(double now_s) {
   if (std::isinf(delay(now_s))) return std::nullopt;  // (also readies the next fragment)
   auto& frames = in_flight_[*nextClass()];
   const std::size_t bytes = wireBytes(frames.front().payload.size());
-  if (!bucket_.tryConsume(bytes, now_s)) return std::nullopt;
+  if (!bucket_.canConsume(bytes, now_s) || (total_ && !total_->canConsume(bytes, now_s))) {
+    return std::nullopt;
+  }
+  bucket_.tryConsume(bytes, now_s);
+  if (total_) total_->tryConsume(bytes, now_s);
   Frame frame = std::move(frames.front());
   frames.pop_front();
   ++counters_.frames_sent;

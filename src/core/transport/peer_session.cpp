@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "ccir_mapping/core/transport/compression.h"
+
 namespace ccir_mapping::core::transport {
 namespace {
 
@@ -29,6 +31,7 @@ std::vector<std::uint8_t> encodeTopic(const TopicInfo& t) {
   for (const auto* s : {&t.name, &t.type, &t.md5, &t.definition}) putString(out, *s);
   out.push_back(t.latched);
   out.push_back(t.reliable);
+  out.push_back(t.compressed);
   return out;
 }
 
@@ -37,9 +40,10 @@ bool decodeTopic(const std::vector<std::uint8_t>& in, TopicInfo& t) {
   for (auto* s : {&t.name, &t.type, &t.md5, &t.definition}) {
     if (!getString(in, at, *s)) return false;
   }
-  if (in.size() - at != 2) return false;
+  if (in.size() - at != 3) return false;
   t.latched = in[at] != 0;
   t.reliable = in[at + 1] != 0;
+  t.compressed = in[at + 2] != 0;
   return true;
 }
 
@@ -51,7 +55,26 @@ std::vector<std::uint8_t> encodeAck(std::uint16_t topic, std::uint64_t sequence)
   return out;
 }
 
+std::uint64_t getU64(const std::vector<std::uint8_t>& in, std::size_t at) {
+  std::uint64_t value = 0;
+  for (std::size_t i = 0; i < 8; ++i) value |= static_cast<std::uint64_t>(in[at + i]) << (8 * i);
+  return value;
+}
+
 }  // namespace
+
+// HELLO payload: the incarnation (8 bytes) and the robot name.
+std::vector<std::uint8_t> encodeHello(const Hello& hello) {
+  std::vector<std::uint8_t> out;
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(hello.incarnation >> (8 * i)));
+  out.insert(out.end(), hello.robot.begin(), hello.robot.end());
+  return out;
+}
+
+std::optional<Hello> decodeHello(const std::vector<std::uint8_t>& payload) {
+  if (payload.size() <= 8 || payload.size() > 8 + 255) return std::nullopt;
+  return Hello{std::string(payload.begin() + 8, payload.end()), getU64(payload, 0)};
+}
 
 PeerSession::PeerSession(std::string own_robot, std::string peer_robot, std::string team_key,
                          const SessionParams& params, double now_s)
@@ -85,10 +108,25 @@ void PeerSession::send(std::uint16_t topic, std::vector<std::uint8_t> message, d
   if (topic == kSessionTopic || topic > topics_.size()) {
     throw std::invalid_argument("PeerSession: unknown topic");
   }
-  const bool reliable = topics_[topic - 1].reliable;
-  const std::vector<std::uint8_t> copy = reliable ? message : std::vector<std::uint8_t>{};
+  const TopicInfo& info = topics_[topic - 1];
+  if (message.size() > params_.max_message_bytes) {
+    ++counters_.dropped_too_large;  // the peer would refuse it
+    return;
+  }
+  if (info.compressed) message = compress(message);
+  if (!connected_ && !info.reliable) {
+    // Lost, except a latched topic's latest, which the next peer to say HELLO gets.
+    if (info.latched) latched_[topic] = {0, std::move(message)};
+    ++counters_.dropped_not_connected;
+    return;
+  }
+  // Kept for a resend: reliable messages until acknowledged, latched ones' latest for a peer
+  // that restarts.
+  std::vector<std::uint8_t> copy;
+  if (info.reliable || info.latched) copy = message;
   const std::uint64_t sequence = scheduler_.enqueue(topic, std::move(message), now_s);
-  if (reliable) outbox_.sent(topic, sequence, copy);
+  if (info.latched) latched_[topic] = {sequence, copy};
+  if (info.reliable) outbox_.sent(topic, sequence, std::move(copy));
 }
 
 void PeerSession::connected(double now_s) {
@@ -98,7 +136,7 @@ void PeerSession::connected(double now_s) {
   peer_topics_.clear();
   peer_said_hello_ = false;
   reason_.clear();
-  scheduler_.enqueue(kSessionTopic, std::vector<std::uint8_t>(own_.begin(), own_.end()), now_s,
+  scheduler_.enqueue(kSessionTopic, encodeHello({own_, params_.incarnation}), now_s,
                      FrameType::kHello);
   connected_ = true;
   for (std::size_t i = 0; i < topics_.size(); ++i)
@@ -106,6 +144,18 @@ void PeerSession::connected(double now_s) {
   for (auto& m : outbox_.unacknowledged()) {
     scheduler_.enqueue(m.topic, std::move(m.bytes), now_s, FrameType::kData, m.sequence);
   }
+}
+
+void PeerSession::disconnected() {
+  connected_ = false;
+  scheduler_.clear();
+}
+
+void PeerSession::keepAlive(double now_s) {
+  if (!connected_ || scheduler_.queued(Priority::kControl) + scheduler_.queued(Priority::kBulk))
+    return;
+  // An acknowledgement of nothing (session topic, sequence 0).
+  scheduler_.enqueue(kSessionTopic, encodeAck(kSessionTopic, 0), now_s, FrameType::kAck);
 }
 
 std::vector<std::uint8_t> PeerSession::output(double now_s) {
@@ -122,22 +172,41 @@ bool PeerSession::refuse(std::string reason) {
   return false;
 }
 
+bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) {
+  const auto hello = decodeHello(payload);
+  if (!hello) return refuse("a malformed HELLO");
+  if (hello->robot != peer_) return refuse("the peer says it is '" + hello->robot + "', not " + peer_);
+  peer_said_hello_ = true;
+  const bool restarted = peer_incarnation_ != hello->incarnation;
+  // A restarted peer's sequences start again.
+  if (restarted && peer_incarnation_) filter_ = SequenceFilter();
+  peer_incarnation_ = hello->incarnation;
+  // The latest latched messages: reliable ones for a new peer process (unless waiting in the
+  // outbox anyway), unreliable ones on every connection (they may have been lost with the last).
+  for (auto& [topic, latest] : latched_) {
+    const bool resend = topics_[topic - 1].reliable
+                            ? restarted && !outbox_.pending(topic, latest.first)
+                            : true;
+    if (resend) scheduler_.enqueue(topic, latest.second, now_s, FrameType::kData, latest.first);
+  }
+  return true;
+}
+
 bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s,
                         std::vector<InboxMessage>& inbox) {
   if (!reason_.empty()) return false;
   decoder_.feed(data, size);
+  counters_.bytes_received += size;
   std::map<std::uint16_t, std::uint64_t> to_acknowledge;
   while (auto frame = decoder_.next()) {
+    counters_.last_heard_s = now_s;
     if (!peer_said_hello_ && frame->type != FrameType::kHello) {
       return refuse("the peer did not say HELLO first");
     }
     switch (frame->type) {
-      case FrameType::kHello: {
-        const std::string name(frame->payload.begin(), frame->payload.end());
-        if (name != peer_) return refuse("the peer says it is '" + name + "', not " + peer_);
-        peer_said_hello_ = true;
+      case FrameType::kHello:
+        if (!greet(frame->payload, now_s)) return false;
         break;
-      }
       case FrameType::kTopic: {
         TopicInfo t;
         if (!decodeTopic(frame->payload, t) || frame->sequence == 0 || frame->sequence > 0xffff) {
@@ -149,11 +218,7 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
       case FrameType::kAck: {
         const auto& p = frame->payload;
         if (p.size() != 10) return refuse("a malformed acknowledgement");
-        std::uint64_t sequence = 0;
-        for (std::size_t i = 0; i < 8; ++i) {
-          sequence |= static_cast<std::uint64_t>(p[2 + i]) << (8 * i);
-        }
-        outbox_.acknowledge(static_cast<std::uint16_t>(p[0] | (p[1] << 8)), sequence);
+        outbox_.acknowledge(static_cast<std::uint16_t>(p[0] | (p[1] << 8)), getU64(p, 2));
         break;
       }
       case FrameType::kData: {
@@ -165,6 +230,11 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
           if (!filter_.accept(peer_, frame->topic, frame->sequence)) break;
           to_acknowledge[frame->topic] = filter_.delivered(peer_, frame->topic);
         }
+        if (topic->second.compressed) {
+          message = decompress(*message, params_.max_message_bytes);
+          if (!message) return refuse("a message that does not decompress");
+        }
+        ++counters_.messages_received;
         inbox.push_back({topic->second, std::move(*message)});
         break;
       }

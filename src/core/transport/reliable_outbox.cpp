@@ -39,6 +39,13 @@ std::vector<PendingMessage> ReliableOutbox::unacknowledged() const {
   return all;
 }
 
+bool ReliableOutbox::pending(std::uint16_t topic, std::uint64_t sequence) const {
+  const auto it = pending_.find(topic);
+  return it != pending_.end() &&
+         std::any_of(it->second.begin(), it->second.end(),
+                     [sequence](const PendingMessage& m) { return m.sequence == sequence; });
+}
+
 std::size_t ReliableOutbox::messages() const {
   std::size_t n = 0;
   for (const auto& [topic, queue] : pending_) n += queue.size();

@@ -24,11 +24,15 @@ double TokenBucket::tokens(double now_s) const {
   return std::min(burst_, tokens_ + rate_ * std::max(0.0, now_s - last_s_));
 }
 
+bool TokenBucket::canConsume(std::size_t bytes, double now_s) const {
+  return static_cast<double>(bytes) <= tokens(now_s) + kSlackBytes;
+}
+
 bool TokenBucket::tryConsume(std::size_t bytes, double now_s) {
   const double available = tokens(now_s);
   last_s_ = std::max(last_s_, now_s);
   tokens_ = available;
-  if (static_cast<double>(bytes) > available + kSlackBytes) return false;
+  if (!canConsume(bytes, now_s)) return false;
   tokens_ = std::max(0.0, tokens_ - static_cast<double>(bytes));
   return true;
 }

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,6 +47,9 @@ class LinkScheduler {
                 double now_s);
 
   void setTopic(std::uint16_t topic, const TopicPolicy& policy);
+  /// A second bucket this link shares with others (the bridge's total budget): a frame leaves
+  /// only when both buckets hold its bytes.
+  void shareBucket(std::shared_ptr<TokenBucket> total) { total_ = std::move(total); }
   /// Queues a serialised message of a topic set before (else std::invalid_argument); returns
   /// the sequence number it will carry (per topic, from 1). A message sent again after a
   /// reconnect keeps its `sequence`; `type` is that of all its frames.
@@ -84,6 +88,7 @@ class LinkScheduler {
   void start(Priority priority);
 
   TokenBucket bucket_;
+  std::shared_ptr<TokenBucket> total_;
   std::size_t fragment_bytes_;
   std::map<std::uint16_t, Topic> topics_;
   /// Per class: waiting messages in arrival order, and the fragments of the one being sent.

@@ -1,16 +1,20 @@
 // The bridge protocol with one peer, without sockets: messages in -> bytes to write, bytes read
 // -> messages out. The nodelet moves the bytes over TCP; tests wire two sessions back to back.
 //
-// On each connection both sides first send HELLO (their robot name) and announce their topics
-// (TOPIC: name, type, md5, definition, latched, reliable), then DATA. The receiver acknowledges
-// reliable topics (ACK: highest sequence delivered); what the peer has not acknowledged when a
-// connection drops is sent again on the next, and the receiver drops what it already delivered.
-// A stream that fails the frame checks, skips HELLO or names another robot is refused.
+// On each connection both sides first send HELLO (their robot name and incarnation: a number
+// drawn at start-up) and announce their topics (TOPIC: name, type, md5, definition, latched,
+// reliable, compressed), then DATA. The receiver acknowledges reliable topics (ACK: highest
+// sequence delivered); what the peer has not acknowledged when a connection drops is sent again
+// on the next, and the receiver drops what it already delivered. A peer with a new incarnation
+// has restarted: its sequences start again, and it is sent the latest message of each latched
+// topic. A stream that fails the frame checks, skips HELLO or names another robot is refused.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,8 +34,18 @@ struct TopicInfo {
   std::string definition;
   bool latched = false;
   bool reliable = true;
+  /// Messages travel zstd-compressed (the link counts the compressed bytes).
+  bool compressed = false;
   TopicPolicy policy;
 };
+
+struct Hello {
+  std::string robot;
+  std::uint64_t incarnation = 0;
+};
+std::vector<std::uint8_t> encodeHello(const Hello& hello);
+/// nullopt for a payload that is not a HELLO's.
+std::optional<Hello> decodeHello(const std::vector<std::uint8_t>& payload);
 
 struct InboxMessage {
   TopicInfo topic;
@@ -45,6 +59,18 @@ struct SessionParams {
   /// Largest message accepted (and frame payload), and unacknowledged bytes kept.
   std::size_t max_message_bytes = 16 << 20;
   std::size_t max_unacknowledged_bytes = 64 << 20;
+  /// Names this run of the process (draw it at start-up); a peer seeing it change knows the
+  /// sender restarted.
+  std::uint64_t incarnation = 1;
+};
+
+struct SessionCounters {
+  std::uint64_t bytes_received = 0;  // on the wire
+  std::uint64_t messages_received = 0;
+  /// When the last frame arrived (negative: never).
+  double last_heard_s = -1.0;
+  std::uint64_t dropped_not_connected = 0;  // unreliable messages offered with no link up
+  std::uint64_t dropped_too_large = 0;      // above max_message_bytes
 };
 
 class PeerSession {
@@ -54,13 +80,21 @@ class PeerSession {
 
   /// A local topic to forward (announced at once if connected); returns its id on the link.
   std::uint16_t addTopic(const TopicInfo& topic, double now_s);
-  /// A message of a topic added before.
+  /// A message of a topic added before. While no connection is up, reliable messages wait
+  /// for the next one and unreliable ones are dropped.
   void send(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s);
+  /// Shares a total budget with other links (LinkScheduler::shareBucket).
+  void shareBucket(std::shared_ptr<TokenBucket> total) { scheduler_.shareBucket(std::move(total)); }
 
   /// A new connection: HELLO, the topic announcements and every unacknowledged reliable
   /// message go first; what was queued for the old connection is dropped (reliable messages
   /// are in the outbox).
   void connected(double now_s);
+  /// The connection is gone.
+  void disconnected();
+  bool isConnected() const { return connected_; }
+  /// Queues a tiny frame if nothing else is, so the peer can tell a quiet link from a dead one.
+  void keepAlive(double now_s);
   /// Encoded frames the budget allows now (possibly none).
   std::vector<std::uint8_t> output(double now_s);
   /// Seconds until output() has something to send (infinity when nothing is queued).
@@ -72,14 +106,20 @@ class PeerSession {
 
   const std::string& reason() const { return reason_; }
   const LinkCounters& counters() const { return scheduler_.counters(); }
+  const SessionCounters& sessionCounters() const { return counters_; }
+  std::size_t queued(Priority priority) const { return scheduler_.queued(priority); }
   std::uint64_t duplicatesDropped() const { return filter_.duplicates(); }
+  /// Reliable messages the peer never got: given up by its outbox bound, seen as gaps here.
+  std::uint64_t missing() const { return filter_.missing(); }
+  std::uint64_t givenUp() const { return outbox_.givenUp(); }
 
  private:
   static constexpr std::uint16_t kSessionTopic = 0;
 
   bool refuse(std::string reason);
   void announce(std::uint16_t id, double now_s);
-  void handle(const Frame& frame, double now_s, std::vector<InboxMessage>& inbox);
+  /// A HELLO; false when it is refused.
+  bool greet(const std::vector<std::uint8_t>& payload, double now_s);
 
   std::string own_;
   std::string peer_;
@@ -91,10 +131,14 @@ class PeerSession {
   ReliableOutbox outbox_;
   SequenceFilter filter_;
   std::vector<TopicInfo> topics_;  // id - 1
+  /// Latched topics: the latest message sent, with its sequence.
+  std::map<std::uint16_t, std::pair<std::uint64_t, std::vector<std::uint8_t>>> latched_;
   std::map<std::uint16_t, TopicInfo> peer_topics_;
+  std::optional<std::uint64_t> peer_incarnation_;
   bool connected_ = false;
   bool peer_said_hello_ = false;
   std::string reason_;
+  SessionCounters counters_;
 };
 
 }  // namespace ccir_mapping::core::transport

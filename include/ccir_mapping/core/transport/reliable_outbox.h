@@ -28,6 +28,8 @@ class ReliableOutbox {
   void acknowledge(std::uint16_t topic, std::uint64_t sequence);
   /// What to send again after a reconnect: per topic, in sequence order.
   std::vector<PendingMessage> unacknowledged() const;
+  /// Whether a message still waits for its acknowledgement.
+  bool pending(std::uint16_t topic, std::uint64_t sequence) const;
 
   std::size_t bytes() const { return bytes_; }
   std::size_t messages() const;

@@ -14,6 +14,7 @@ class TokenBucket {
   /// Takes `bytes` if that many tokens are there at `now_s` (a message larger than the burst
   /// can never pass: cut it into fragments first).
   bool tryConsume(std::size_t bytes, double now_s);
+  bool canConsume(std::size_t bytes, double now_s) const;
   /// Seconds from `now_s` until `bytes` could pass (0 if now; infinite if above the burst).
   double delayFor(std::size_t bytes, double now_s) const;
   double tokens(double now_s) const;
