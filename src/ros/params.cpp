@@ -1,6 +1,8 @@
 #include "ccir_mapping/ros/params.h"
 
 #include <cmath>
+#include <set>
+#include <type_traits>
 
 #include "ccir_mapping/core/common/param_check.h"
 
@@ -30,17 +32,48 @@ void load(ParamReader& reader, RobotFrames& frames) {
   }
 }
 
-// Reads a string field of one list entry; records an error naming "list[i].field".
-bool readEntryString(ParamReader& reader, const XmlRpc::XmlRpcValue& entry, const std::string& name,
-                     const std::string& field, std::string& out) {
-  XmlRpc::XmlRpcValue copy = entry;
-  if (!copy.hasMember(field) || copy[field].getType() != XmlRpc::XmlRpcValue::TypeString) {
-    reader.addError(name + "." + field + " is missing or not a string");
-    return false;
+// One dictionary of a list parameter: typed fields, with errors naming "list[i].field"; fields
+// no one reads are reported as unknown when it goes (a misspelt option must not pass silently).
+class EntryReader {
+ public:
+  EntryReader(ParamReader& reader, std::string name, const XmlRpc::XmlRpcValue& entry)
+      : reader_(reader), name_(std::move(name)), entry_(entry) {}
+  EntryReader(const EntryReader&) = delete;
+  EntryReader& operator=(const EntryReader&) = delete;
+  ~EntryReader() {
+    for (const auto& [field, value] : entry_) {
+      if (!read_.count(field)) reader_.addError(name_ + "." + field + " is not a known field");
+    }
   }
-  out = static_cast<std::string>(copy[field]);
-  return true;
-}
+
+  template <class T>
+  void read(const std::string& field, T& out, bool required = false) {
+    read_.insert(field);
+    if (!entry_.hasMember(field)) {
+      if (required) reader_.addError(name_ + "." + field + " is missing");
+      return;
+    }
+    XmlRpc::XmlRpcValue& value = entry_[field];
+    const auto type = value.getType();
+    if constexpr (std::is_same_v<T, std::string>) {
+      if (type == XmlRpc::XmlRpcValue::TypeString) return void(out = static_cast<std::string>(value));
+    } else if constexpr (std::is_same_v<T, bool>) {
+      if (type == XmlRpc::XmlRpcValue::TypeBoolean) return void(out = static_cast<bool>(value));
+    } else if constexpr (std::is_floating_point_v<T>) {
+      if (type == XmlRpc::XmlRpcValue::TypeDouble) return void(out = static_cast<double>(value));
+      if (type == XmlRpc::XmlRpcValue::TypeInt) return void(out = static_cast<int>(value));
+    } else {
+      if (type == XmlRpc::XmlRpcValue::TypeInt) return void(out = static_cast<int>(value));
+    }
+    reader_.addError(name_ + "." + field + " has the wrong type");
+  }
+
+ private:
+  ParamReader& reader_;
+  std::string name_;
+  XmlRpc::XmlRpcValue entry_;  // a copy: XmlRpcValue's accessors are not const
+  std::set<std::string> read_;
+};
 
 // Iterates a list parameter whose entries are structs; records an error if it is not one.
 template <class Fn>
@@ -166,45 +199,60 @@ void load(ParamReader& reader, BridgeSettings& config) {
   load(reader, config.frames);
   auto& p = config.core;
   reader.read("listen_port", p.listen_port);
+  reader.read("team_key", p.team_key);
   reader.read("budget_bytes_per_s", p.budget_bytes_per_s);
+  reader.read("total_budget_bytes_per_s", p.total_budget_bytes_per_s);
+  reader.read("max_message_bytes", p.max_message_bytes);
+  reader.read("reconnect_min_s", p.reconnect_min_s);
+  reader.read("reconnect_max_s", p.reconnect_max_s);
+  reader.read("peer_timeout_s", p.peer_timeout_s);
   reader.read("burst_bytes", p.burst_bytes);
   reader.read("fragment_bytes", p.fragment_bytes);
   reader.read("stats_period_s", p.stats_period_s);
 
   forEachEntry(reader, "peers", [&](const std::string& name, const XmlRpc::XmlRpcValue& entry) {
     core::transport::PeerConfig peer;
-    readEntryString(reader, entry, name, "name", peer.name);
-    readEntryString(reader, entry, name, "host", peer.host);
-    XmlRpc::XmlRpcValue copy = entry;
-    if (copy.hasMember("port") && copy["port"].getType() == XmlRpc::XmlRpcValue::TypeInt) {
-      peer.port = static_cast<int>(copy["port"]);
-    } else {
-      reader.addError(name + ".port is missing or not an integer");
-    }
+    EntryReader fields(reader, name, entry);
+    fields.read("name", peer.name, true);
+    fields.read("host", peer.host, true);
+    fields.read("port", peer.port, true);
     p.peers.push_back(peer);
   });
 
   // Without a `topics` list, every outbox topic of the protocol is forwarded.
   if (!reader.raw("topics")) {
     using core::transport::Priority;
-    p.topics = {{"outbox/features", Priority::kControl},
-                {"outbox/offers", Priority::kControl},
-                {"outbox/requests", Priority::kControl},
-                {"outbox/receipts", Priority::kControl},
-                {"outbox/scans", Priority::kBulk}};
+    p.topics.resize(5);
+    const char* names[] = {"outbox/features", "outbox/offers", "outbox/requests",
+                           "outbox/receipts", "outbox/scans"};
+    for (int i = 0; i < 5; ++i) p.topics[i].topic = names[i];
+    p.topics[4].policy.priority = Priority::kBulk;
   }
   forEachEntry(reader, "topics", [&](const std::string& name, const XmlRpc::XmlRpcValue& entry) {
     core::transport::ForwardedTopic topic;
-    readEntryString(reader, entry, name, "topic", topic.topic);
+    EntryReader fields(reader, name, entry);
+    fields.read("topic", topic.topic, true);
     std::string priority = "control";
-    XmlRpc::XmlRpcValue copy = entry;
-    if (copy.hasMember("priority")) readEntryString(reader, entry, name, "priority", priority);
+    std::string queue = "fifo";
+    int max_queued = static_cast<int>(topic.policy.max_queued);
+    fields.read("priority", priority);
+    fields.read("queue", queue);
+    fields.read("max_queued", max_queued);
+    fields.read("max_age_s", topic.policy.max_age_s);
+    fields.read("reliable", topic.reliable);
+    fields.read("compress", topic.compress);
     if (const auto parsed = core::transport::parsePriority(priority)) {
-      topic.priority = *parsed;
+      topic.policy.priority = *parsed;
     } else {
       reader.addError(
           core::notOneOf(name + ".priority", priority, core::transport::kPriorityChoices));
     }
+    if (const auto parsed = core::transport::parseQueuePolicy(queue)) {
+      topic.policy.queue = *parsed;
+    } else {
+      reader.addError(core::notOneOf(name + ".queue", queue, core::transport::kQueuePolicyChoices));
+    }
+    topic.policy.max_queued = static_cast<std::size_t>(std::max(0, max_queued));
     p.topics.push_back(topic);
   });
   reader.addErrors(p.validate(config.frames.robot_name));

@@ -85,9 +85,10 @@ TEST(ParamLoading, UnknownKeysAreReported) {
 }
 
 TEST(ParamLoading, BridgePeersAndTopics) {
-  ParamReader reader{params(R"({robot_name: robot_a,
+  ParamReader reader{params(R"({robot_name: robot_a, team_key: 0123456789abcdef,
       peers: [{name: robot_b, host: 127.0.0.1, port: 17002}],
-      topics: [{topic: outbox/scans, priority: bulk}, {topic: outbox/offers}]})")};
+      topics: [{topic: outbox/scans, priority: bulk, compress: true},
+               {topic: outbox/offers, queue: keep_latest, max_age_s: 2, reliable: false}]})")};
   BridgeSettings settings;
   load(reader, settings);
   ASSERT_TRUE(reader.errors().empty()) << reader.errors()[0];
@@ -95,8 +96,13 @@ TEST(ParamLoading, BridgePeersAndTopics) {
   EXPECT_EQ(settings.core.peers[0].name, "robot_b");
   EXPECT_EQ(settings.core.peers[0].port, 17002);
   ASSERT_EQ(settings.core.topics.size(), 2u);
-  EXPECT_EQ(settings.core.topics[0].priority, core::transport::Priority::kBulk);
-  EXPECT_EQ(settings.core.topics[1].priority, core::transport::Priority::kControl);
+  EXPECT_EQ(settings.core.topics[0].policy.priority, core::transport::Priority::kBulk);
+  EXPECT_TRUE(settings.core.topics[0].compress);
+  EXPECT_TRUE(settings.core.topics[0].reliable);
+  EXPECT_EQ(settings.core.topics[1].policy.priority, core::transport::Priority::kControl);
+  EXPECT_EQ(settings.core.topics[1].policy.queue, core::transport::QueuePolicy::kKeepLatest);
+  EXPECT_EQ(settings.core.topics[1].policy.max_age_s, 2.0);
+  EXPECT_FALSE(settings.core.topics[1].reliable);
 }
 
 TEST(ParamLoading, BridgeDefaultsForwardTheWholeProtocol) {
@@ -109,12 +115,23 @@ TEST(ParamLoading, BridgeDefaultsForwardTheWholeProtocol) {
 
 TEST(ParamLoading, MalformedBridgeLists) {
   ParamReader reader{params(
-      "{peers: {name: robot_b}, topics: [outbox/scans, {topic: outbox/x, priority: urgent}]}")};
+      "{peers: {name: robot_b}, topics: [outbox/scans, {topic: outbox/x, priority: urgent},"
+      " {topic: outbox/y, prority: bulk, max_queued: many}]}")};
   BridgeSettings settings;
   load(reader, settings);
   EXPECT_TRUE(hasError(reader, "peers has the wrong type: expected a list"));
   EXPECT_TRUE(hasError(reader, "topics[0] has the wrong type: expected a dictionary"));
   EXPECT_TRUE(hasError(reader, "topics[1].priority = 'urgent' is not allowed"));
+  EXPECT_TRUE(hasError(reader, "topics[2].prority is not a known field"));
+  EXPECT_TRUE(hasError(reader, "topics[2].max_queued has the wrong type"));
+}
+
+TEST(ParamLoading, ABridgeWithPeersNeedsATeamKey) {
+  ParamReader reader{params(R"({robot_name: robot_a, listen_port: 17001,
+      peers: [{name: robot_b, host: 127.0.0.1, port: 17002}]})")};
+  BridgeSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(hasError(reader, "team_key must be at least 16 characters"));
 }
 
 TEST(ParamLoading, ANonStructNamespaceIsAnError) {

@@ -16,10 +16,26 @@ const char* toString(Priority priority) {
   return priority == Priority::kControl ? "control" : "bulk";
 }
 
+std::optional<QueuePolicy> parseQueuePolicy(std::string_view text) {
+  if (text == "fifo") return QueuePolicy::kFifo;
+  if (text == "keep_latest") return QueuePolicy::kKeepLatest;
+  return std::nullopt;
+}
+
 std::vector<std::string> BridgeParams::validate(const std::string& own_robot_name) const {
   ParamCheck check;
   check.inRange("listen_port", listen_port, 0, 65535);
   check.inRange("budget_bytes_per_s", budget_bytes_per_s, 1000.0, 1e9);
+  check.inRange("total_budget_bytes_per_s", total_budget_bytes_per_s, 1000.0, 1e9);
+  check.inRange("max_message_bytes", max_message_bytes, 1024, 1 << 30);
+  check.inRange("reconnect_min_s", reconnect_min_s, 0.01, 3600.0);
+  check.inRange("reconnect_max_s", reconnect_max_s, reconnect_min_s, 3600.0);
+  check.inRange("peer_timeout_s", peer_timeout_s, 0.5, 3600.0);
+  if (!peers.empty() || listen_port != 0) {
+    check.require(team_key.size() >= 16,
+                  "team_key must be at least 16 characters (the same secret on every robot) "
+                  "when the bridge has peers or listens");
+  }
   check.inRange("fragment_bytes", fragment_bytes, 1024, 1 << 20);
   check.inRange("burst_bytes", burst_bytes, 1024, 1 << 26);
   check.require(burst_bytes >= fragment_bytes,
@@ -44,6 +60,10 @@ std::vector<std::string> BridgeParams::validate(const std::string& own_robot_nam
     check.require(
         topic.rfind("outbox/", 0) == 0 && topic.size() > 7,
         name + " = '" + topic + "' is not allowed: allowed relative topics under outbox/");
+    const std::string prefix = "topics[" + std::to_string(i) + "].";
+    check.inRange(prefix + "max_age_s", topics[i].policy.max_age_s, 0.0, 86400.0);
+    check.inRange(prefix + "max_queued", static_cast<double>(topics[i].policy.max_queued), 1.0,
+                  1e6);
   }
   return check.errors();
 }

@@ -158,9 +158,11 @@ void PeerSession::keepAlive(double now_s) {
   scheduler_.enqueue(kSessionTopic, encodeAck(kSessionTopic, 0), now_s, FrameType::kAck);
 }
 
-std::vector<std::uint8_t> PeerSession::output(double now_s) {
+std::vector<std::uint8_t> PeerSession::output(double now_s, std::size_t max_frames) {
   std::vector<std::uint8_t> bytes;
-  while (auto frame = scheduler_.next(now_s)) {
+  for (std::size_t n = 0; n < max_frames; ++n) {
+    const auto frame = scheduler_.next(now_s);
+    if (!frame) break;
     const auto encoded = encodeFrame(*frame, key_);
     bytes.insert(bytes.end(), encoded.begin(), encoded.end());
   }

@@ -19,17 +19,6 @@
 
 namespace ccir_mapping::core::transport {
 
-enum class QueuePolicy { kFifo, kKeepLatest };
-
-struct TopicPolicy {
-  Priority priority = Priority::kControl;
-  QueuePolicy queue = QueuePolicy::kFifo;
-  /// Messages waiting longer than this are dropped before sending; 0 keeps them.
-  double max_age_s = 0.0;
-  /// Messages queued at most; a new one beyond it drops the oldest waiting.
-  std::size_t max_queued = 100;
-};
-
 struct LinkCounters {
   std::uint64_t frames_sent = 0;
   std::uint64_t bytes_sent = 0;  // on the wire

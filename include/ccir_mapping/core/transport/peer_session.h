@@ -95,8 +95,9 @@ class PeerSession {
   bool isConnected() const { return connected_; }
   /// Queues a tiny frame if nothing else is, so the peer can tell a quiet link from a dead one.
   void keepAlive(double now_s);
-  /// Encoded frames the budget allows now (possibly none).
-  std::vector<std::uint8_t> output(double now_s);
+  /// Encoded frames the budget allows now (possibly none), at most `max_frames` of them (links
+  /// sharing a total budget take turns a frame at a time).
+  std::vector<std::uint8_t> output(double now_s, std::size_t max_frames = SIZE_MAX);
   /// Seconds until output() has something to send (infinity when nothing is queued).
   double outputDelay(double now_s) { return scheduler_.delay(now_s); }
   /// Bytes read from the connection; delivered messages are appended to `inbox`. False when

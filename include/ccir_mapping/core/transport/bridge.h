@@ -1,0 +1,65 @@
+// The bridge's network side (no ROS): one PeerSession per configured teammate, carried over TCP
+// with Boost.Asio on a thread of its own. Listens on listen_port; of two robots the one whose
+// name sorts first dials (a robot that does not listen dials everyone), redialling with
+// exponential backoff. An accepted connection is matched to its peer by its first frame, an
+// authenticated HELLO. Links share the total budget and take turns a frame at a time. A link
+// silent for peer_timeout_s is closed. Nothing a peer sends can stop the thread: a refused
+// stream closes its connection and is counted by reason.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/transport/bridge_params.h"
+#include "ccir_mapping/core/transport/peer_session.h"
+
+namespace ccir_mapping::core::transport {
+
+/// One link as LinkStats reports it.
+struct LinkReport {
+  std::string peer;
+  std::string address;
+  bool connected = false;
+  LinkCounters sent;
+  SessionCounters received;
+  std::size_t queued_control = 0;
+  std::size_t queued_bulk = 0;
+  /// Messages dropped and streams refused, by reason.
+  std::map<std::string, std::uint64_t> drops;
+  /// Seconds on the bridge's clock since the peer was last heard (negative: never).
+  double silent_s = -1.0;
+};
+
+class Bridge {
+ public:
+  using InboxHandler = std::function<void(const std::string& peer, InboxMessage message)>;
+  using LogHandler = std::function<void(const std::string& text)>;
+
+  /// Throws std::invalid_argument when params.validate(own_robot) reports errors.
+  /// `on_message` and `on_warning` run on the bridge's thread.
+  Bridge(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
+         LogHandler on_warning);
+  ~Bridge();
+  Bridge(const Bridge&) = delete;
+  Bridge& operator=(const Bridge&) = delete;
+
+  /// Opens the listening socket (std::runtime_error naming the port if it cannot) and starts
+  /// the thread.
+  void start();
+  /// A local message for every peer (thread-safe). The first message of a topic name fixes its
+  /// type; later ones of another md5 are dropped ("type_changed").
+  void publish(const TopicInfo& topic, std::vector<std::uint8_t> message);
+  /// Thread-safe snapshot; the last entry (peer "") counts connections refused before they said
+  /// who they are, if any.
+  std::vector<LinkReport> reports();
+
+ private:
+  struct Impl;  // Asio stays out of this header
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ccir_mapping::core::transport

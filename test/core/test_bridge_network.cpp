@@ -1,0 +1,216 @@
+// The bridge's network side over loopback TCP, without ROS: two Bridges through a LinkProxy that
+// records what the sender put on the wire and cuts the connection once. Reliable messages arrive
+// exactly once and in order across the cut, the sender stays within its budget in every 1 s
+// window while scans saturate it, control messages overtake the scans, and a stranger's
+// connection is refused and counted without disturbing the link.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include <boost/asio.hpp>
+
+#include "ccir_mapping/core/transport/bridge.h"
+#include "ccir_mapping/core/transport/link_proxy.h"
+
+namespace ccir_mapping::core::transport {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+const std::string kKey = "a team key of some length";
+
+int freePort() {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::acceptor acceptor(
+      io, boost::asio::ip::tcp::endpoint(boost::asio::ip::make_address("127.0.0.1"), 0));
+  return acceptor.local_endpoint().port();
+}
+
+/// What one bridge received, awaitable.
+struct Inbox {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::map<std::string, std::vector<std::vector<std::uint8_t>>> by_topic;
+  std::map<std::string, std::vector<Clock::time_point>> arrived;
+
+  void add(const std::string& peer, InboxMessage m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    by_topic[peer + ":" + m.topic.name].push_back(std::move(m.bytes));
+    arrived[peer + ":" + m.topic.name].push_back(Clock::now());
+    changed.notify_all();
+  }
+  bool waitFor(const std::string& key, std::size_t n, double timeout_s) {
+    std::unique_lock<std::mutex> lock(mutex);
+    return changed.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                            [&] { return by_topic[key].size() >= n; });
+  }
+};
+
+BridgeParams params(int listen_port, const std::string& peer, int peer_port) {
+  BridgeParams p;
+  p.listen_port = listen_port;
+  p.team_key = kKey;
+  p.peers = {{peer, "127.0.0.1", peer_port}};
+  p.budget_bytes_per_s = 100000.0;
+  p.total_budget_bytes_per_s = 100000.0;
+  p.burst_bytes = 32768;
+  p.fragment_bytes = 16384;
+  p.reconnect_min_s = 0.1;
+  p.reconnect_max_s = 0.5;
+  return p;
+}
+
+TopicInfo topic(const std::string& name, Priority priority) {
+  TopicInfo t;
+  t.name = name;
+  t.type = "test/Bytes";
+  t.md5 = "0123456789abcdef0123456789abcdef";
+  t.definition = "uint8[] data\n";
+  t.policy.priority = priority;
+  t.policy.max_queued = 1000;
+  return t;
+}
+
+std::vector<std::uint8_t> numbered(std::size_t size, std::uint32_t n) {
+  std::vector<std::uint8_t> bytes(size, static_cast<std::uint8_t>(n));
+  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<std::uint8_t>(n >> (8 * i));
+  return bytes;
+}
+
+std::uint32_t number(const std::vector<std::uint8_t>& bytes) {
+  std::uint32_t n = 0;
+  for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(bytes[i]) << (8 * i);
+  return n;
+}
+
+TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
+  const int port_a = freePort();
+  const int port_b = freePort();
+  LinkProxyParams link;
+  link.target_port = port_b;
+  link.link.rate_bytes_per_s = 1e6;  // faster than the budget: the bridge is what limits
+  link.link.delay_s = 0.01;
+  link.link.jitter_s = 0.002;
+  LinkProxy proxy(link);
+
+  Inbox at_b;
+  std::vector<std::string> warnings_b;
+  std::mutex warnings_mutex;
+  // robot_a sorts first: it dials robot_b, through the proxy.
+  Bridge a(params(port_a, "robot_b", proxy.port()), "robot_a", [](auto&&...) {}, [](auto&&) {});
+  Bridge b(params(port_b, "robot_a", port_a), "robot_b",
+           [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+           [&](const std::string& text) {
+             std::lock_guard<std::mutex> lock(warnings_mutex);
+             warnings_b.push_back(text);
+           });
+  a.start();
+  b.start();
+
+  // 6 s: a 15 KB scan every 0.1 s (1.5 times the budget) and an offer every 0.05 s; the
+  // connection is cut at 2.5 s.
+  const TopicInfo scans = topic("inbox/scans", Priority::kBulk);
+  const TopicInfo offers = topic("inbox/offers", Priority::kControl);
+  std::map<std::uint32_t, Clock::time_point> offered;
+  const auto start = Clock::now();
+  for (std::uint32_t tick = 0; tick < 120; ++tick) {
+    std::this_thread::sleep_until(start + std::chrono::milliseconds(50 * tick));  // pacing
+    if (tick == 50) proxy.cut();
+    offered[tick] = Clock::now();
+    a.publish(offers, numbered(100, tick));
+    if (tick % 2 == 0) a.publish(scans, numbered(15000, tick / 2));
+  }
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/offers", 120, 20.0));
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/scans", 60, 30.0))
+      << at_b.by_topic["robot_a:inbox/scans"].size() << " scans";
+
+  // Exactly once, in order, across the cut.
+  for (const std::string key : {"robot_a:inbox/offers", "robot_a:inbox/scans"}) {
+    const auto& got = at_b.by_topic[key];
+    for (std::size_t i = 0; i < got.size(); ++i) ASSERT_EQ(number(got[i]), i) << key;
+  }
+  EXPECT_EQ(at_b.by_topic["robot_a:inbox/offers"].size(), 120U);
+  EXPECT_EQ(at_b.by_topic["robot_a:inbox/scans"].size(), 60U);
+  EXPECT_GE(proxy.connections(), 2U) << "a reconnected after the cut";
+  {
+    std::lock_guard<std::mutex> lock(warnings_mutex);
+    EXPECT_FALSE(warnings_b.empty()) << "b noticed the cut";
+  }
+
+  // Within budget in every window of 1 s (and of 5 s) of what reached the wire.
+  const auto wire = proxy.forwarded();
+  ASSERT_FALSE(wire.empty());
+  for (const double window : {1.0, 5.0}) {
+    for (std::size_t i = 0; i < wire.size(); ++i) {
+      std::size_t bytes = 0;
+      for (std::size_t j = i; j < wire.size() && wire[j].first < wire[i].first + window; ++j)
+        bytes += wire[j].second;
+      ASSERT_LE(bytes, 32768 + 100000 * window) << window << " s from " << wire[i].first;
+    }
+  }
+  std::size_t total = 0;
+  for (const auto& [t, n] : wire) total += n;
+  const double seconds = wire.back().first - wire.front().first;
+  EXPECT_GT(total / seconds, 0.7 * 100000) << "the saturated link was used";
+
+  // Offers kept ahead of the scans: most arrived within 0.3 s (a 16 KB fragment takes 0.16 s).
+  std::vector<double> latency;
+  const auto& offer_times = at_b.arrived["robot_a:inbox/offers"];
+  for (std::size_t i = 0; i < offer_times.size(); ++i) {
+    latency.push_back(std::chrono::duration<double>(offer_times[i] - offered[i]).count());
+  }
+  std::sort(latency.begin(), latency.end());
+  EXPECT_LT(latency[latency.size() / 2], 0.3);
+  RecordProperty("offer_latency_p50_ms", static_cast<int>(1000 * latency[latency.size() / 2]));
+  RecordProperty("offer_latency_max_ms", static_cast<int>(1000 * latency.back()));
+  RecordProperty("wire_rate_bytes_per_s", static_cast<int>(total / seconds));
+
+  const auto reports = a.reports();
+  ASSERT_EQ(reports.size(), 1U);
+  EXPECT_TRUE(reports[0].connected);
+  EXPECT_EQ(reports[0].peer, "robot_b");
+  EXPECT_GT(reports[0].sent.bytes_sent, 900000U);
+  EXPECT_EQ(b.reports()[0].drops.at("missing"), 0U) << "no reliable message was given up";
+}
+
+TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
+  const int port_a = freePort();
+  const int port_b = freePort();
+  Inbox at_b;
+  Bridge a(params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&) {});
+  Bridge b(params(port_b, "robot_a", port_a), "robot_b",
+           [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+           [](auto&&) {});
+  b.start();
+
+  // A stranger: garbage, then a well-formed HELLO under another key.
+  boost::asio::io_context io;
+  for (const auto& bytes :
+       {std::vector<std::uint8_t>(200, 0x5a),
+        encodeFrame({FrameType::kHello, 0, 0, 1, 0, 1, encodeHello({"robot_a", 7})}, "wrong key")}) {
+    boost::asio::ip::tcp::socket stranger(io);
+    stranger.connect({boost::asio::ip::make_address("127.0.0.1"),
+                      static_cast<unsigned short>(port_b)});
+    boost::asio::write(stranger, boost::asio::buffer(bytes));
+    std::array<std::uint8_t, 16> reply;
+    boost::system::error_code ec;
+    stranger.read_some(boost::asio::buffer(reply), ec);  // returns when b closes it
+    EXPECT_TRUE(ec) << "b closed the stranger's connection";
+  }
+  const auto reports = b.reports();
+  ASSERT_EQ(reports.size(), 2U);
+  EXPECT_EQ(reports[1].peer, "");
+  EXPECT_EQ(reports[1].drops.at("refused: bad magic"), 1U);
+  EXPECT_EQ(reports[1].drops.at("refused: bad mac"), 1U);
+
+  a.start();
+  a.publish(topic("inbox/offers", Priority::kControl), numbered(100, 0));
+  EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 10.0));
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::transport
