@@ -1,71 +1,197 @@
-// Bridge: carries the outbox topics to teammates' ROS masters. This skeleton subscribes to
-// every configured outbox topic as raw bytes (any message type), counts what it would send and
-// reports each peer link; the TCP transport with its byte budget arrives with the transport core.
+// Bridge: carries the outbox topics to teammates' ROS masters and republishes theirs on the
+// inbox. Any message type: subscribed as topic_tools::ShapeShifter (type, md5, definition and
+// latching come from the publisher's connection header) and republished from the bytes and that
+// description. The network side is core::transport::Bridge; this nodelet converts and reports.
+#include <deque>
+#include <map>
 #include <mutex>
 
+#include <ros/names.h>
 #include <topic_tools/shape_shifter.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/LinkStats.h"
+#include "ccir_mapping/core/transport/bridge.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
 namespace ccir_mapping {
+namespace transport = core::transport;
+
+namespace {
+
+// A new inbox publisher holds its first messages this long, so subscribers in other processes
+// have connected before they go out (roscpp connects them asynchronously).
+constexpr double kNewPublisherHoldS = 0.5;
+
+}  // namespace
 
 class BridgeNodelet final : public PipelineNodelet {
  private:
+  struct Inbox {
+    ros::Publisher publisher;
+    std::string md5;
+    ros::WallTime ready;
+    std::deque<topic_tools::ShapeShifter::ConstPtr> held;
+  };
+
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
+    try {
+      bridge_ = std::make_unique<transport::Bridge>(
+          settings_.core, settings_.frames.robot_name,
+          [this](const std::string& peer, transport::InboxMessage message) {
+            onInbox(peer, std::move(message));
+          },
+          [this](const std::string& text) { NODELET_WARN_THROTTLE(1.0, "%s", text.c_str()); });
+      bridge_->start();
+    } catch (const std::exception& e) {
+      bridge_.reset();
+      failConfiguration(e.what());
+      return;
+    }
     stats_pub_ = nh.advertise<LinkStats>(topics::kLinkStats, topics::kMessageQueueSize);
     for (const auto& forwarded : settings_.core.topics) {
-      const std::string topic = forwarded.topic;
       subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
-          topic, topics::kMessageQueueSize,
-          [this, topic](const topic_tools::ShapeShifter::ConstPtr& msg) {
-            onOutbox(topic, *msg);
+          forwarded.topic, topics::kMessageQueueSize,
+          [this, forwarded](const ros::MessageEvent<topic_tools::ShapeShifter const>& event) {
+            onOutbox(forwarded, event);
           }));
     }
-    if (settings_.core.peers.empty()) {
-      NODELET_INFO("no peers configured: outbox traffic is counted, not sent");
-    }
+    if (settings_.core.peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
     stats_timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.stats_period_s),
                                         &BridgeNodelet::onStatsTimer, this);
+    flush_timer_ = nh.createSteadyTimer(ros::WallDuration(0.1), &BridgeNodelet::onFlushTimer, this);
   }
 
-  void onOutbox(const std::string& topic, const topic_tools::ShapeShifter& msg) {
-    count("in " + topic, msg.size());
-    // No transport yet: every message is dropped for every peer.
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++not_sent_;
+  void onOutbox(const transport::ForwardedTopic& forwarded,
+                const ros::MessageEvent<topic_tools::ShapeShifter const>& event) {
+    const topic_tools::ShapeShifter& msg = *event.getConstMessage();
+    count("in " + forwarded.topic, msg.size());
+    transport::TopicInfo topic;
+    topic.name = "inbox/" + forwarded.topic.substr(std::string("outbox/").size());
+    topic.type = msg.getDataType();
+    topic.md5 = msg.getMD5Sum();
+    topic.definition = msg.getMessageDefinition();
+    const auto header = event.getConnectionHeaderPtr();
+    topic.latched = header && header->count("latching") && header->at("latching") == "1";
+    topic.reliable = forwarded.reliable;
+    topic.compressed = forwarded.compress;
+    topic.policy = forwarded.policy;
+    std::vector<std::uint8_t> bytes(msg.size());
+    ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+    msg.write(stream);
+    bridge_->publish(topic, std::move(bytes));
+  }
+
+  // On the bridge's thread.
+  void onInbox(const std::string& peer, transport::InboxMessage message) {
+    const transport::TopicInfo& topic = message.topic;
+    std::string error;
+    if (topic.name.rfind("inbox/", 0) != 0 || topic.name.find("..") != std::string::npos ||
+        !ros::names::validate(topic.name, error)) {
+      NODELET_WARN_THROTTLE(5.0, "dropping a message from %s on '%s': not a topic under inbox/",
+                            peer.c_str(), topic.name.c_str());
+      count("dropped from " + peer);
+      return;
+    }
+    auto msg = boost::make_shared<topic_tools::ShapeShifter>();
+    msg->morph(topic.md5, topic.type, topic.definition, topic.latched ? "1" : "0");
+    ros::serialization::IStream stream(message.bytes.data(),
+                                       static_cast<std::uint32_t>(message.bytes.size()));
+    msg->read(stream);
+    count("in " + topic.name + " from " + peer, message.bytes.size());
+    // On the common inbox topic (the protocol's messages name their robot) and on one that
+    // names the sender, for any type.
+    const std::string rest = topic.name.substr(std::string("inbox/").size());
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    for (const std::string& name : {topic.name, "inbox/" + peer + "/" + rest}) {
+      auto it = inboxes_.find(name);
+      if (it == inboxes_.end()) {
+        Inbox inbox;
+        inbox.publisher =
+            msg->advertise(getNodeHandle(), name, topics::kKeyframeQueueSize, topic.latched);
+        inbox.md5 = topic.md5;
+        inbox.ready = ros::WallTime::now() + ros::WallDuration(kNewPublisherHoldS);
+        it = inboxes_.emplace(name, std::move(inbox)).first;
+      }
+      Inbox& inbox = it->second;
+      if (inbox.md5 != topic.md5) {
+        NODELET_WARN_THROTTLE(5.0, "dropping %s from %s on %s: another type than before",
+                              topic.type.c_str(), peer.c_str(), name.c_str());
+        continue;
+      }
+      if (inbox.held.empty() && ros::WallTime::now() >= inbox.ready) {
+        inbox.publisher.publish(msg);
+      } else {
+        inbox.held.push_back(msg);
+      }
+    }
+  }
+
+  void onFlushTimer(const ros::SteadyTimerEvent&) {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    const ros::WallTime now = ros::WallTime::now();
+    for (auto& [name, inbox] : inboxes_) {
+      if (now < inbox.ready) continue;
+      for (const auto& msg : inbox.held) inbox.publisher.publish(msg);
+      inbox.held.clear();
+    }
   }
 
   void onStatsTimer(const ros::SteadyTimerEvent&) {
-    std::uint64_t not_sent = 0;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      not_sent = not_sent_;
-    }
-    for (const auto& peer : settings_.core.peers) {
+    const ros::WallTime now = ros::WallTime::now();
+    for (const auto& report : bridge_->reports()) {
       auto stats = boost::make_shared<LinkStats>();
       stats->header.stamp = ros::Time::now();
       stats->robot = settings_.frames.robot_name;
-      stats->peer = peer.name;
-      stats->address = peer.host + ":" + std::to_string(peer.port);
+      stats->peer = report.peer;
+      stats->connected = report.connected;
+      stats->address = report.address;
+      stats->bytes_sent = report.sent.bytes_sent;
+      stats->bytes_received = report.received.bytes_received;
+      stats->messages_sent = report.sent.messages_sent;
+      stats->messages_received = report.received.messages_received;
+      auto& last = last_report_[report.peer];
+      if (!last.first.isZero()) {
+        stats->send_rate_bytes_per_s = static_cast<double>(report.sent.bytes_sent - last.second) /
+                                       std::max(1e-3, (now - last.first).toSec());
+      }
+      last = {now, report.sent.bytes_sent};
       stats->budget_bytes_per_s = settings_.core.budget_bytes_per_s;
-      stats->drop_reasons = {"not_connected"};
-      stats->drop_counts = {not_sent};
+      stats->queued_control = static_cast<std::uint32_t>(report.queued_control);
+      stats->queued_bulk = static_cast<std::uint32_t>(report.queued_bulk);
+      for (const auto& [reason, n] : report.drops) {
+        if (n == 0) continue;
+        stats->drop_reasons.push_back(reason);
+        stats->drop_counts.push_back(n);
+      }
+      if (report.silent_s >= 0) stats->last_seen.fromSec(now.toSec() - report.silent_s);
       stats_pub_.publish(stats);
     }
   }
 
+  void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
+    if (!bridge_) return;
+    for (const auto& report : bridge_->reports()) {
+      if (report.peer.empty()) continue;
+      status.add("link " + report.peer,
+                 std::string(report.connected ? "connected " : "down ") + report.address);
+    }
+  }
+
   ros_params::BridgeSettings settings_;
-  std::mutex mutex_;
-  std::uint64_t not_sent_ = 0;  // outbox messages no peer received
   ros::Publisher stats_pub_;
   std::vector<ros::Subscriber> subs_;
   ros::SteadyTimer stats_timer_;
+  ros::SteadyTimer flush_timer_;
+  std::map<std::string, std::pair<ros::WallTime, std::uint64_t>> last_report_;
+  std::mutex inbox_mutex_;
+  std::map<std::string, Inbox> inboxes_;
+  // Last, so it is destroyed first: its thread calls onInbox.
+  std::unique_ptr<transport::Bridge> bridge_;
 };
 
 }  // namespace ccir_mapping

@@ -29,7 +29,7 @@ struct LinkProxy::Impl {
     std::shared_ptr<tcp::socket> from;
     std::shared_ptr<tcp::socket> to;
     LinkEmulator link;
-    bool record = false;
+    bool towards_target = true;
     std::deque<std::pair<double, std::vector<std::uint8_t>>> queue;
     std::size_t queued_bytes = 0;
     bool reading = false;
@@ -65,9 +65,9 @@ struct LinkProxy::Impl {
         if (ec || self->closed) return self->close();
         chunk->resize(n);
         const double t = self->proxy->now();
-        if (pipe.record) {
+        {
           std::lock_guard<std::mutex> lock(self->proxy->mutex);
-          self->proxy->forwarded.emplace_back(t, n);
+          self->proxy->forwarded[pipe.towards_target].emplace_back(t, n);
         }
         pipe.queue.emplace_back(pipe.link.arrival(n, t), std::move(*chunk));
         pipe.queued_bytes += n;
@@ -106,7 +106,7 @@ struct LinkProxy::Impl {
   std::uint64_t seed;
 
   mutable std::mutex mutex;
-  std::vector<std::pair<double, std::size_t>> forwarded;
+  std::vector<std::pair<double, std::size_t>> forwarded[2];  // back, towards the target
   std::size_t accepted = 0;
 
   double now() const {
@@ -114,11 +114,11 @@ struct LinkProxy::Impl {
   }
 
   std::unique_ptr<Pipe> pipe(std::shared_ptr<tcp::socket> from, std::shared_ptr<tcp::socket> to,
-                             std::uint64_t pipe_seed, bool record) {
+                             std::uint64_t pipe_seed, bool towards_target) {
     LinkEmulatorParams link = params.link;
     link.seed = pipe_seed;
     auto p = std::unique_ptr<Pipe>(new Pipe{std::move(from), std::move(to), LinkEmulator(link)});
-    p->record = record;
+    p->towards_target = towards_target;
     p->timer = std::make_unique<asio::steady_timer>(io);
     return p;
   }
@@ -197,9 +197,9 @@ void LinkProxy::cut() {
   done.get_future().wait();
 }
 
-std::vector<std::pair<double, std::size_t>> LinkProxy::forwarded() const {
+std::vector<std::pair<double, std::size_t>> LinkProxy::forwarded(bool towards_target) const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  return impl_->forwarded;
+  return impl_->forwarded[towards_target];
 }
 
 std::size_t LinkProxy::connections() const {

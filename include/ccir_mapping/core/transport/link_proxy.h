@@ -1,7 +1,7 @@
 // A TCP relay on loopback that carries each connection through a LinkEmulator per direction
 // (delay, jitter, loss, outages, rate), for tests and benchmarks of the bridge (netem is not
-// available on these machines). It records when and how many bytes entered it from the
-// connecting side, so a test can check the sender's rate independently of the sender, and it can
+// available on these machines). It records when and how many bytes entered it each way, so a
+// test can check the sender's rate independently of the sender, and it can
 // cut every connection on demand.
 #pragma once
 
@@ -36,9 +36,9 @@ class LinkProxy {
   int port() const;
   /// Closes every relayed connection now; new ones are accepted as before.
   void cut();
-  /// Seconds since the proxy started and bytes, for each chunk that entered from the connecting
-  /// side (towards the target).
-  std::vector<std::pair<double, std::size_t>> forwarded() const;
+  /// Seconds since the proxy started and bytes, for each chunk that entered it from the
+  /// connecting side (towards the target) or from the target (back).
+  std::vector<std::pair<double, std::size_t>> forwarded(bool towards_target = true) const;
   std::size_t connections() const;
 
  private:

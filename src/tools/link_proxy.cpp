@@ -1,0 +1,103 @@
+// link_proxy: relays TCP connections on 127.0.0.1 through an emulated radio link (rate, delay,
+// jitter, loss, outages; seeded) and can cut them at given times, for tests of the bridge
+// between ROS masters (netem is not available here). On SIGINT/SIGTERM it writes what entered
+// it each way as CSV (direction,time_s,bytes; direction "up" = towards the target).
+#include <signal.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <thread>
+
+#include <boost/program_options.hpp>
+
+#include "ccir_mapping/core/transport/link_proxy.h"
+
+namespace po = boost::program_options;
+using ccir_mapping::core::transport::LinkProxy;
+using ccir_mapping::core::transport::LinkProxyParams;
+
+int main(int argc, char** argv) {
+  LinkProxyParams params;
+  std::vector<double> cut_at_s;
+  std::vector<std::string> outages;
+  std::string log_path;
+  po::options_description options("link_proxy: an emulated radio link between two TCP ends");
+  options.add_options()("help", "this help")(
+      "listen-port", po::value<int>(&params.listen_port)->default_value(0),
+      "port to accept on (127.0.0.1; 0 = any, printed)")(
+      "target-port", po::value<int>(&params.target_port)->required(), "port to relay to")(
+      "target-host", po::value<std::string>(&params.target_host)->default_value("127.0.0.1"),
+      "address to relay to")(
+      "rate-bytes-per-s", po::value<double>(&params.link.rate_bytes_per_s)->default_value(1e6),
+      "link rate each way")("delay-s", po::value<double>(&params.link.delay_s)->default_value(0.01),
+                            "one-way delay")(
+      "jitter-s", po::value<double>(&params.link.jitter_s)->default_value(0.002), "delay jitter")(
+      "loss", po::value<double>(&params.link.loss)->default_value(0.0),
+      "share of chunks lost once (delivered a retransmission later)")(
+      "seed", po::value<std::uint64_t>(&params.link.seed)->default_value(1), "random seed")(
+      "cut-at-s", po::value<std::vector<double>>(&cut_at_s)->multitoken(),
+      "seconds after start at which every connection is closed")(
+      "log", po::value<std::string>(&log_path), "CSV of the bytes relayed, written at exit");
+  po::variables_map arguments;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), arguments);
+    if (arguments.count("help")) {
+      std::cout << options << "\n";
+      return 0;
+    }
+    po::notify(arguments);
+  } catch (const po::error& e) {
+    std::cerr << "link_proxy: " << e.what() << "\n" << options << "\n";
+    return 2;
+  }
+
+  // Signals are taken by sigwait below, not by a handler.
+  sigset_t stop;
+  sigemptyset(&stop);
+  sigaddset(&stop, SIGINT);
+  sigaddset(&stop, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+
+  std::unique_ptr<LinkProxy> proxy;
+  try {
+    proxy = std::make_unique<LinkProxy>(params);
+  } catch (const std::exception& e) {
+    std::cerr << "link_proxy: " << e.what() << "\n";
+    return 1;
+  }
+  std::cout << "link_proxy: 127.0.0.1:" << proxy->port() << " -> " << params.target_host << ":"
+            << params.target_port << std::endl;
+
+  std::thread cutter([&] {
+    const auto start = std::chrono::steady_clock::now();
+    std::sort(cut_at_s.begin(), cut_at_s.end());
+    for (const double t : cut_at_s) {
+      std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                std::chrono::duration<double>(t)));
+      proxy->cut();
+      std::cout << "link_proxy: cut every connection at " << t << " s" << std::endl;
+    }
+  });
+  cutter.detach();
+  int signal = 0;
+  sigwait(&stop, &signal);
+
+  if (!log_path.empty()) {
+    std::ofstream log(log_path);
+    log << "direction,time_s,bytes\n";
+    for (const bool up : {true, false}) {
+      for (const auto& [t, bytes] : proxy->forwarded(up)) {
+        log << (up ? "up" : "down") << "," << t << "," << bytes << "\n";
+      }
+    }
+    if (!log) {
+      std::cerr << "link_proxy: cannot write " << log_path << "\n";
+      return 1;
+    }
+  }
+  std::_Exit(0);  // the cutter may still sleep
+}

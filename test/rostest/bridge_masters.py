@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""The bridge between separate ROS masters: N robots, each with its own rosmaster (its own port,
+its own processes), a Bridge in its own manager, and a traffic node. Every link goes through a
+link_proxy (the emulated radio) that records the bytes each way and cuts the robot_a-robot_b
+connection once, mid-run.
+
+Checks: every control message and scan from each teammate arrives exactly once and in order
+across the cut; each robot's bytes on the wire stay within its total budget in every 1 s (and
+5 s) window while scans saturate it, and fill most of it; control messages stay fast (those sent
+around the cut excepted)."""
+import csv
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+import unittest
+
+import rosgraph
+import roslib.packages
+import rospy
+import rostest
+
+BUDGET = 150000.0
+BURST = 131072
+TEAM_KEY = "bridge-test-team-key"
+CUT_AFTER_S = 8.0  # into the traffic
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def executable(name):
+    found = roslib.packages.find_node("ccir_mapping", name)
+    if not found:
+        raise RuntimeError("%s is not built" % name)
+    return found[0]
+
+
+class BridgeMasters(unittest.TestCase):
+    def setUp(self):
+        self.robots = ["robot_%s" % c for c in "abcdefgh"[: rospy.get_param("~robots", 2)]]
+        self.duration_s = rospy.get_param("~duration_s", 12.0)
+        # A cloud every 3 control messages (6.7 Hz): a third more than the budget takes.
+        self.cloud_bytes = rospy.get_param("~cloud_bytes", 30000)
+        self.dir = tempfile.mkdtemp(prefix="bridge_masters_")
+        self.processes = []
+
+    def tearDown(self):
+        for process in reversed(self.processes):
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGINT)
+        for process in reversed(self.processes):
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def spawn(self, name, command, master_port=None):
+        env = dict(os.environ, ROS_IP="127.0.0.1", ROS_LOG_DIR=os.path.join(self.dir, "log"))
+        env.pop("ROS_HOSTNAME", None)
+        if master_port:
+            env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % master_port
+        log = open(os.path.join(self.dir, name + ".log"), "w")
+        process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
+        self.processes.append(process)
+        return process
+
+    def log_tail(self, name, lines=30):
+        with open(os.path.join(self.dir, name + ".log")) as f:
+            return "".join(f.readlines()[-lines:])
+
+    def test_team_over_separate_masters(self):
+        n = len(self.robots)
+        masters = {r: free_port() for r in self.robots}
+        listen = {r: free_port() for r in self.robots}
+        for robot, port in masters.items():
+            self.spawn("master_" + robot, ["rosmaster", "--core", "-p", str(port)])
+        # The robot whose name sorts first dials, through a proxy of its own per link.
+        proxies = {}
+        proxy_started = time.time()
+        start_at = proxy_started + 10.0 + 2.0 * n
+        for i, a in enumerate(self.robots):
+            for b in self.robots[i + 1:]:
+                port = free_port()
+                command = [executable("link_proxy"), "--listen-port", str(port), "--target-port",
+                           str(listen[b]), "--rate-bytes-per-s", "1e6", "--seed", str(i + 1),
+                           "--log", os.path.join(self.dir, "wire_%s_%s.csv" % (a, b))]
+                if (a, b) == ("robot_a", "robot_b"):
+                    command += ["--cut-at-s", str(start_at - proxy_started + CUT_AFTER_S)]
+                proxies[(a, b)] = (port, self.spawn("proxy_%s_%s" % (a, b), command))
+        for robot in self.robots:
+            deadline = time.time() + 20
+            master = rosgraph.Master("/bridge_masters", "http://127.0.0.1:%d" % masters[robot])
+            while not master.is_online():
+                self.assertLess(time.time(), deadline, "rosmaster of %s did not come up" % robot)
+                time.sleep(0.1)
+
+        for robot in self.robots:
+            peers = []
+            for other in self.robots:
+                if other == robot:
+                    continue
+                dials = robot < other
+                port = proxies[(robot, other)][0] if dials else listen[other]
+                peers.append("{name: %s, host: 127.0.0.1, port: %d}" % (other, port))
+            config = os.path.join(self.dir, robot + ".yaml")
+            with open(config, "w") as f:
+                f.write("bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
+                        "  total_budget_bytes_per_s: %f\n  burst_bytes: %d\n"
+                        "  reconnect_min_s: 0.2\n  reconnect_max_s: 1.0\n  peer_timeout_s: 5.0\n"
+                        "  peers: [%s]\n"
+                        "  topics: [{topic: outbox/ping, priority: control},\n"
+                        "           {topic: outbox/cloud, priority: bulk}]\n"
+                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
+            self.spawn("bridge_" + robot, ["roslaunch", "ccir_mapping", "bridge.launch",
+                                           "robot:=" + robot, "config:=" + config],
+                       masters[robot])
+            self.spawn("traffic_" + robot,
+                       [executable("bridge_traffic.py"), "--robot", robot, "--peers",
+                        ",".join(r for r in self.robots if r != robot), "--start-at",
+                        str(start_at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
+                        "--cloud-bytes", str(self.cloud_bytes), "--out",
+                        os.path.join(self.dir, "traffic_%s.json" % robot)],
+                       masters[robot])
+
+        traffic = [p for p in self.processes if "traffic" in " ".join(p.args)]
+        for robot, process in zip(self.robots, traffic):
+            try:
+                process.wait(timeout=start_at - time.time() + self.duration_s + 60)
+            except subprocess.TimeoutExpired:
+                self.fail("traffic of %s did not finish:\n%s" % (robot, self.log_tail("traffic_" + robot)))
+            self.assertEqual(process.returncode, 0, "traffic of %s failed:\n%s\nbridge:\n%s" % (
+                robot, self.log_tail("traffic_" + robot), self.log_tail("bridge_" + robot)))
+        for _, process in proxies.values():
+            process.send_signal(signal.SIGINT)
+            process.wait(timeout=10)
+
+        self.assertIn("cut every connection", self.log_tail("proxy_robot_a_robot_b"))
+        self.assertIn("closed", self.log_tail("bridge_robot_a", 200), "robot_a saw the cut")
+        results = {}
+        for robot in self.robots:
+            with open(os.path.join(self.dir, "traffic_%s.json" % robot)) as f:
+                results[robot] = json.load(f)
+        cut_at = start_at + CUT_AFTER_S
+        all_latencies = []
+        for robot, result in results.items():
+            for peer, got in result["received"].items():
+                sent = results[peer]["sent"]
+                for kind in ("ping", "cloud"):
+                    numbers = [m[0] for m in got[kind]]
+                    self.assertEqual(numbers, list(range(sent[kind])),
+                                     "%s from %s at %s: not exactly once in order (%d of %d)\n%s"
+                                     % (kind, peer, robot, len(numbers), sent[kind],
+                                        self.log_tail("bridge_" + robot)))
+                # Control latency, except for pings sent around the cut of a-b.
+                around_cut = {peer, robot} == {"robot_a", "robot_b"}
+                all_latencies += [arrived - stamp for _, stamp, arrived in got["ping"]
+                                  if not (around_cut and cut_at - 1.0 <= stamp <= cut_at + 3.0)]
+        all_latencies.sort()
+        p50 = all_latencies[len(all_latencies) // 2]
+        p99 = all_latencies[int(0.99 * (len(all_latencies) - 1))]
+        print("control latency p50 %.3f s, p99 %.3f s, max %.3f s over %d messages"
+              % (p50, p99, all_latencies[-1], len(all_latencies)))
+        self.assertLess(p50, 0.3)
+        self.assertLess(p99, 0.8)
+
+        # Each robot's bytes on the wire: what it sent through the proxies it dialed ("up") and
+        # back through those that dialed it ("down").
+        for robot in self.robots:
+            chunks = []
+            for (a, b) in proxies:
+                if robot not in (a, b):
+                    continue
+                with open(os.path.join(self.dir, "wire_%s_%s.csv" % (a, b))) as f:
+                    for row in csv.DictReader(f):
+                        if row["direction"] == ("up" if robot == a else "down"):
+                            chunks.append((float(row["time_s"]), int(row["bytes"])))
+            chunks.sort()
+            for window in (1.0, 5.0):
+                j = 0
+                in_window = 0
+                for i in range(len(chunks)):
+                    while j < len(chunks) and chunks[j][0] < chunks[i][0] + window:
+                        in_window += chunks[j][1]
+                        j += 1
+                    self.assertLessEqual(in_window, BURST + BUDGET * window,
+                                         "%s sent %d bytes in %.0f s from %.2f s" % (
+                                             robot, in_window, window, chunks[i][0]))
+                    in_window -= chunks[i][1]
+            # While saturated (after the first burst, before the cut): most of the budget.
+            t0 = start_at - proxy_started + 4.0
+            t1 = start_at - proxy_started + CUT_AFTER_S - 0.5
+            used = sum(b for t, b in chunks if t0 <= t < t1) / (t1 - t0)
+            print("%s: %.0f bytes/s on the wire while saturated (budget %.0f)" % (robot, used, BUDGET))
+            self.assertGreater(used, 0.85 * BUDGET, robot)
+
+
+if __name__ == "__main__":
+    rospy.init_node("bridge_masters", anonymous=True)
+    rostest.rosrun("ccir_mapping", "bridge_masters", BridgeMasters)
