@@ -4,6 +4,10 @@ its own processes), a Bridge in its own manager, and a traffic node. Every link 
 link_proxy (the emulated radio) that records the bytes each way and cuts the robot_a-robot_b
 connection once, mid-run.
 
+With ~netns, the two robots live in network namespaces the test makes, joined by a veth pair
+shaped with tbf (the kernel's rate limiter; 250 KB/s, above the budget) and addressed from
+10.200.0.0/24; it is skipped with a message where namespaces cannot be made.
+
 Checks: every control message and scan from each teammate arrives exactly once and in order
 across the cut; each robot's bytes on the wire stay within its total budget in every 1 s (and
 5 s) window while scans saturate it, and fill most of it; control messages stay fast (those sent
@@ -11,18 +15,19 @@ around the cut excepted)."""
 import csv
 import json
 import os
+import re
 import shutil
 import signal
 import socket
 import subprocess
+import sys
 import tempfile
 import time
 import unittest
+import xml.etree.ElementTree as ET
 
-import rosgraph
 import roslib.packages
 import rospy
-import rostest
 
 BUDGET = 150000.0
 BURST = 131072
@@ -45,7 +50,8 @@ def executable(name):
 
 class BridgeMasters(unittest.TestCase):
     def setUp(self):
-        self.robots = ["robot_%s" % c for c in "abcdefgh"[: rospy.get_param("~robots", 2)]]
+        self.netns = rospy.get_param("~netns", False)
+        self.robots = ["robot_%s" % c for c in "abcdefgh"[: 2 if self.netns else rospy.get_param("~robots", 2)]]
         self.duration_s = rospy.get_param("~duration_s", 12.0)
         # A cloud every 3 control messages (6.7 Hz): a third more than the budget takes.
         self.cloud_bytes = rospy.get_param("~cloud_bytes", 30000)
@@ -62,6 +68,43 @@ class BridgeMasters(unittest.TestCase):
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, signal.SIGKILL)
         shutil.rmtree(self.dir, ignore_errors=True)
+
+    def check_call(self, command):
+        subprocess.run(command, check=True, capture_output=True, timeout=20)
+
+    def make_namespaces(self):
+        """Two network namespaces (held by sleeping processes) joined by a tbf-shaped veth pair;
+        returns each one's command prefix and address."""
+        for tool in ("unshare", "nsenter", "ip", "tc"):
+            if not shutil.which(tool):
+                self.skipTest("network namespace test skipped: %s is not installed" % tool)
+        holders = []
+        for robot in self.robots:
+            holder = self.spawn("netns_" + robot, ["unshare", "--net", "sleep", "3600"])
+            holders.append(holder)
+        prefixes, hosts = {}, {}
+        try:
+            time.sleep(0.2)  # unshare has entered its namespace before it execs sleep
+            for holder in holders:
+                if holder.poll() is not None:
+                    raise RuntimeError("unshare --net failed")
+            a, b = (["nsenter", "-t", str(h.pid), "-n"] for h in holders)
+            self.check_call(a + ["ip", "link", "add", "v1", "type", "veth", "peer", "name", "v2"])
+            self.check_call(a + ["ip", "link", "set", "v2", "netns", str(holders[1].pid)])
+            for prefix, dev, address in ((a, "v1", "10.200.0.1"), (b, "v2", "10.200.0.2")):
+                self.check_call(prefix + ["ip", "addr", "add", address + "/24", "dev", dev])
+                self.check_call(prefix + ["ip", "link", "set", "lo", "up"])
+                self.check_call(prefix + ["ip", "link", "set", dev, "up"])
+                # burst must be at least the MTU (1500), or TCP stalls.
+                self.check_call(prefix + ["tc", "qdisc", "add", "dev", dev, "root", "tbf", "rate",
+                                   "2mbit", "burst", "32kb", "latency", "200ms"])
+            for robot, prefix, address in zip(self.robots, (a, b), ("10.200.0.1", "10.200.0.2")):
+                prefixes[robot], hosts[robot] = prefix, address
+        except (RuntimeError, subprocess.SubprocessError, OSError) as e:
+            detail = getattr(e, "stderr", b"") or b""
+            self.skipTest("network namespace test skipped: cannot make namespaces here (%s %s)"
+                          % (e, detail.decode(errors="replace").strip()))
+        return prefixes, hosts
 
     def spawn(self, name, command, master_port=None):
         env = dict(os.environ, ROS_IP="127.0.0.1", ROS_LOG_DIR=os.path.join(self.dir, "log"))
@@ -82,27 +125,37 @@ class BridgeMasters(unittest.TestCase):
         n = len(self.robots)
         masters = {r: free_port() for r in self.robots}
         listen = {r: free_port() for r in self.robots}
+        # Where each robot runs (a command prefix) and the address teammates reach it at.
+        prefix = {r: [] for r in self.robots}
+        host = {r: "127.0.0.1" for r in self.robots}
+        if self.netns:
+            prefix, host = self.make_namespaces()
         for robot, port in masters.items():
-            self.spawn("master_" + robot, ["rosmaster", "--core", "-p", str(port)])
-        # The robot whose name sorts first dials, through a proxy of its own per link.
+            self.spawn("master_" + robot, prefix[robot] + ["rosmaster", "--core", "-p", str(port)])
+        # The robot whose name sorts first dials, through a proxy of its own per link (in its
+        # own namespace, relaying to the teammate's address).
         proxies = {}
         proxy_started = time.time()
         start_at = proxy_started + 10.0 + 2.0 * n
         for i, a in enumerate(self.robots):
             for b in self.robots[i + 1:]:
                 port = free_port()
-                command = [executable("link_proxy"), "--listen-port", str(port), "--target-port",
-                           str(listen[b]), "--rate-bytes-per-s", "1e6", "--seed", str(i + 1),
+                command = [executable("link_proxy"), "--listen-port", str(port), "--target-host",
+                           host[b], "--target-port", str(listen[b]), "--rate-bytes-per-s", "1e6",
+                           "--seed", str(i + 1),
                            "--log", os.path.join(self.dir, "wire_%s_%s.csv" % (a, b))]
                 if (a, b) == ("robot_a", "robot_b"):
                     command += ["--cut-at-s", str(start_at - proxy_started + CUT_AFTER_S)]
-                proxies[(a, b)] = (port, self.spawn("proxy_%s_%s" % (a, b), command))
+                proxies[(a, b)] = (port, self.spawn("proxy_%s_%s" % (a, b), prefix[a] + command))
         for robot in self.robots:
-            deadline = time.time() + 20
-            master = rosgraph.Master("/bridge_masters", "http://127.0.0.1:%d" % masters[robot])
-            while not master.is_online():
-                self.assertLess(time.time(), deadline, "rosmaster of %s did not come up" % robot)
-                time.sleep(0.1)
+            # Asked from the robot's own namespace (roslaunch --wait hangs in one).
+            waited = subprocess.run(prefix[robot] + [
+                "python3", "-c", "import rosgraph, sys, time\n"
+                "m = rosgraph.Master('/wait', 'http://127.0.0.1:%d')\n"
+                "deadline = time.time() + 20\n"
+                "while not m.is_online() and time.time() < deadline: time.sleep(0.1)\n"
+                "sys.exit(0 if m.is_online() else 1)" % masters[robot]], timeout=30)
+            self.assertEqual(waited.returncode, 0, "rosmaster of %s did not come up" % robot)
 
         for robot in self.robots:
             peers = []
@@ -110,8 +163,9 @@ class BridgeMasters(unittest.TestCase):
                 if other == robot:
                     continue
                 dials = robot < other
-                port = proxies[(robot, other)][0] if dials else listen[other]
-                peers.append("{name: %s, host: 127.0.0.1, port: %d}" % (other, port))
+                address, port = (("127.0.0.1", proxies[(robot, other)][0]) if dials
+                                 else (host[other], listen[other]))
+                peers.append("{name: %s, host: %s, port: %d}" % (other, address, port))
             config = os.path.join(self.dir, robot + ".yaml")
             with open(config, "w") as f:
                 f.write("bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
@@ -121,18 +175,19 @@ class BridgeMasters(unittest.TestCase):
                         "  topics: [{topic: outbox/ping, priority: control},\n"
                         "           {topic: outbox/cloud, priority: bulk}]\n"
                         % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
-            self.spawn("bridge_" + robot, ["roslaunch", "ccir_mapping", "bridge.launch",
-                                           "robot:=" + robot, "config:=" + config],
+            self.spawn("bridge_" + robot,
+                       prefix[robot] + ["roslaunch", "ccir_mapping", "bridge.launch",
+                                        "robot:=" + robot, "config:=" + config],
                        masters[robot])
             self.spawn("traffic_" + robot,
-                       [executable("bridge_traffic.py"), "--robot", robot, "--peers",
+                       prefix[robot] + [executable("bridge_traffic.py"), "--robot", robot, "--peers",
                         ",".join(r for r in self.robots if r != robot), "--start-at",
                         str(start_at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
                         "--cloud-bytes", str(self.cloud_bytes), "--out",
                         os.path.join(self.dir, "traffic_%s.json" % robot)],
                        masters[robot])
 
-        traffic = [p for p in self.processes if "traffic" in " ".join(p.args)]
+        traffic = [p for p in self.processes if "--peers" in p.args]
         for robot, process in zip(self.robots, traffic):
             try:
                 process.wait(timeout=start_at - time.time() + self.duration_s + 60)
@@ -144,6 +199,13 @@ class BridgeMasters(unittest.TestCase):
             process.send_signal(signal.SIGINT)
             process.wait(timeout=10)
 
+        if self.netns:
+            # The traffic crossed the shaped veth link, not some other path.
+            stats = subprocess.run(prefix["robot_a"] + ["tc", "-s", "qdisc", "show", "dev", "v1"],
+                                   capture_output=True, text=True, timeout=10).stdout
+            sent = int(re.search(r"Sent (\d+) bytes", stats).group(1))
+            print("tbf on robot_a's veth sent %d bytes" % sent)
+            self.assertGreater(sent, 0.5 * BUDGET * self.duration_s, stats)
         self.assertIn("cut every connection", self.log_tail("proxy_robot_a_robot_b"))
         self.assertIn("closed", self.log_tail("bridge_robot_a", 200), "robot_a saw the cut")
         results = {}
@@ -204,6 +266,32 @@ class BridgeMasters(unittest.TestCase):
             self.assertGreater(used, 0.85 * BUDGET, robot)
 
 
-if __name__ == "__main__":
+def main():
+    """Runs the test and writes its JUnit XML itself: rosunit's writer has no "skipped"."""
     rospy.init_node("bridge_masters", anonymous=True)
-    rostest.rosrun("ccir_mapping", "bridge_masters", BridgeMasters)
+    suite = unittest.defaultTestLoader.loadTestsFromTestCase(BridgeMasters)
+    ids = [test.id() for test in suite]  # (running empties the suite)
+    result = unittest.TextTestRunner(verbosity=2).run(suite)
+    output = [a.split("xml:", 1)[1] for a in sys.argv if a.startswith("--gtest_output=xml:")]
+    if output:
+        suite_xml = ET.Element("testsuite", name="bridge_masters", tests=str(result.testsRun),
+                               failures=str(len(result.failures)),
+                               errors=str(len(result.errors)))
+        outcomes = {}
+        for kind, entries in (("failure", result.failures), ("error", result.errors),
+                              ("skipped", result.skipped)):
+            for test, text in entries:
+                outcomes[test.id()] = (kind, text)
+        for test_id in ids:
+            case = ET.SubElement(suite_xml, "testcase", classname="BridgeMasters",
+                                 name=test_id.rsplit(".", 1)[1])
+            if test_id in outcomes:
+                kind, text = outcomes[test_id]
+                ET.SubElement(case, kind, message=text.strip().splitlines()[-1]).text = text
+        os.makedirs(os.path.dirname(output[0]), exist_ok=True)
+        ET.ElementTree(suite_xml).write(output[0])
+    sys.exit(0 if result.wasSuccessful() else 1)
+
+
+if __name__ == "__main__":
+    main()
