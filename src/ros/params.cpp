@@ -56,7 +56,8 @@ class EntryReader {
     XmlRpc::XmlRpcValue& value = entry_[field];
     const auto type = value.getType();
     if constexpr (std::is_same_v<T, std::string>) {
-      if (type == XmlRpc::XmlRpcValue::TypeString) return void(out = static_cast<std::string>(value));
+      if (type == XmlRpc::XmlRpcValue::TypeString)
+        return void(out = static_cast<std::string>(value));
     } else if constexpr (std::is_same_v<T, bool>) {
       if (type == XmlRpc::XmlRpcValue::TypeBoolean) return void(out = static_cast<bool>(value));
     } else if constexpr (std::is_floating_point_v<T>) {
@@ -223,8 +224,8 @@ void load(ParamReader& reader, BridgeSettings& config) {
   if (!reader.raw("topics")) {
     using core::transport::Priority;
     p.topics.resize(5);
-    const char* names[] = {"outbox/features", "outbox/offers", "outbox/requests",
-                           "outbox/receipts", "outbox/scans"};
+    const char* names[] = {"outbox/features", "outbox/offers", "outbox/requests", "outbox/receipts",
+                           "outbox/scans"};
     for (int i = 0; i < 5; ++i) p.topics[i].topic = names[i];
     p.topics[4].policy.priority = Priority::kBulk;
   }

@@ -96,7 +96,8 @@ Result run(const Options& o, bool control_first) {
   BridgeParams pb = p;
   pb.listen_port = port_b;
   pb.peers = {{"robot_a", "127.0.0.1", port_a}};
-  Bridge a(pa, "robot_a", [](auto&&...) {}, [](auto&&) {});
+  Bridge a(
+      pa, "robot_a", [](auto&&...) {}, [](auto&&) {});
   Bridge b(
       pb, "robot_b",
       [&](const std::string&, InboxMessage m) {
@@ -200,7 +201,8 @@ int main(int argc, char** argv) {
   std::printf(
       "{\"budget_bytes_per_s\": %.0f, \"offered_bytes_per_s\": %.0f, \"duration_s\": %.1f,\n"
       " \"utilisation\": %.3f, \"utilisation_target\": 0.9,\n"
-      " \"control_latency_ms\": {\"p50\": %.1f, \"p99\": %.1f, \"delivered\": %zu, \"sent\": %zu},\n"
+      " \"control_latency_ms\": {\"p50\": %.1f, \"p99\": %.1f, \"delivered\": %zu, \"sent\": "
+      "%zu},\n"
       " \"baseline_one_class_latency_ms\": {\"p50\": %.1f, \"p99\": %.1f},\n"
       " \"latency_ratio_p99\": %.3f,\n"
       " \"cpu_s_per_mb\": %.4f, \"compress\": %s}\n",

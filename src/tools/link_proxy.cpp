@@ -26,15 +26,15 @@ int main(int argc, char** argv) {
   std::vector<std::string> outages;
   std::string log_path;
   po::options_description options("link_proxy: an emulated radio link between two TCP ends");
-  options.add_options()("help", "this help")(
-      "listen-port", po::value<int>(&params.listen_port)->default_value(0),
-      "port to accept on (127.0.0.1; 0 = any, printed)")(
+  options.add_options()("help", "this help")("listen-port",
+                                             po::value<int>(&params.listen_port)->default_value(0),
+                                             "port to accept on (127.0.0.1; 0 = any, printed)")(
       "target-port", po::value<int>(&params.target_port)->required(), "port to relay to")(
       "target-host", po::value<std::string>(&params.target_host)->default_value("127.0.0.1"),
-      "address to relay to")(
-      "rate-bytes-per-s", po::value<double>(&params.link.rate_bytes_per_s)->default_value(1e6),
-      "link rate each way")("delay-s", po::value<double>(&params.link.delay_s)->default_value(0.01),
-                            "one-way delay")(
+      "address to relay to")("rate-bytes-per-s",
+                             po::value<double>(&params.link.rate_bytes_per_s)->default_value(1e6),
+                             "link rate each way")(
+      "delay-s", po::value<double>(&params.link.delay_s)->default_value(0.01), "one-way delay")(
       "jitter-s", po::value<double>(&params.link.jitter_s)->default_value(0.002), "delay jitter")(
       "loss", po::value<double>(&params.link.loss)->default_value(0.0),
       "share of chunks lost once (delivered a retransmission later)")(

@@ -101,13 +101,15 @@ TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
   std::vector<std::string> warnings_b;
   std::mutex warnings_mutex;
   // robot_a sorts first: it dials robot_b, through the proxy.
-  Bridge a(params(port_a, "robot_b", proxy.port()), "robot_a", [](auto&&...) {}, [](auto&&) {});
-  Bridge b(params(port_b, "robot_a", port_a), "robot_b",
-           [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
-           [&](const std::string& text) {
-             std::lock_guard<std::mutex> lock(warnings_mutex);
-             warnings_b.push_back(text);
-           });
+  Bridge a(
+      params(port_a, "robot_b", proxy.port()), "robot_a", [](auto&&...) {}, [](auto&&) {});
+  Bridge b(
+      params(port_b, "robot_a", port_a), "robot_b",
+      [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+      [&](const std::string& text) {
+        std::lock_guard<std::mutex> lock(warnings_mutex);
+        warnings_b.push_back(text);
+      });
   a.start();
   b.start();
 
@@ -181,20 +183,23 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   const int port_a = freePort();
   const int port_b = freePort();
   Inbox at_b;
-  Bridge a(params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&) {});
-  Bridge b(params(port_b, "robot_a", port_a), "robot_b",
-           [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
-           [](auto&&) {});
+  Bridge a(
+      params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&) {});
+  Bridge b(
+      params(port_b, "robot_a", port_a), "robot_b",
+      [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+      [](auto&&) {});
   b.start();
 
   // A stranger: garbage, then a well-formed HELLO under another key.
   boost::asio::io_context io;
   for (const auto& bytes :
        {std::vector<std::uint8_t>(200, 0x5a),
-        encodeFrame({FrameType::kHello, 0, 0, 1, 0, 1, encodeHello({"robot_a", 7})}, "wrong key")}) {
+        encodeFrame({FrameType::kHello, 0, 0, 1, 0, 1, encodeHello({"robot_a", 7})},
+                    "wrong key")}) {
     boost::asio::ip::tcp::socket stranger(io);
-    stranger.connect({boost::asio::ip::make_address("127.0.0.1"),
-                      static_cast<unsigned short>(port_b)});
+    stranger.connect(
+        {boost::asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port_b)});
     boost::asio::write(stranger, boost::asio::buffer(bytes));
     std::array<std::uint8_t, 16> reply;
     boost::system::error_code ec;

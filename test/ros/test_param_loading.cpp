@@ -114,9 +114,9 @@ TEST(ParamLoading, BridgeDefaultsForwardTheWholeProtocol) {
 }
 
 TEST(ParamLoading, MalformedBridgeLists) {
-  ParamReader reader{params(
-      "{peers: {name: robot_b}, topics: [outbox/scans, {topic: outbox/x, priority: urgent},"
-      " {topic: outbox/y, prority: bulk, max_queued: many}]}")};
+  ParamReader reader{
+      params("{peers: {name: robot_b}, topics: [outbox/scans, {topic: outbox/x, priority: urgent},"
+             " {topic: outbox/y, prority: bulk, max_queued: many}]}")};
   BridgeSettings settings;
   load(reader, settings);
   EXPECT_TRUE(hasError(reader, "peers has the wrong type: expected a list"));

@@ -89,9 +89,8 @@ struct Bridge::Impl {
   // --- connections (all on the thread, with the mutex held) ---
 
   void scheduleDial(Link& link) {
-    link.backoff_s = link.backoff_s == 0.0
-                         ? params.reconnect_min_s
-                         : std::min(params.reconnect_max_s, 2.0 * link.backoff_s);
+    link.backoff_s = link.backoff_s == 0.0 ? params.reconnect_min_s
+                                           : std::min(params.reconnect_max_s, 2.0 * link.backoff_s);
     link.dial_timer->expires_after(after(link.backoff_s));
     link.dial_timer->async_wait([this, &link](const boost::system::error_code& ec) {
       if (ec) return;
@@ -114,14 +113,14 @@ struct Bridge::Impl {
                  ec.message());
             return scheduleDial(link);
           }
-          asio::async_connect(*socket, endpoints,
-                              [this, &link, socket](const boost::system::error_code& ec,
-                                                    const tcp::endpoint&) {
-                                std::lock_guard<std::mutex> lock(mutex);
-                                if (ec) return scheduleDial(link);
-                                std::vector<InboxMessage> none;
-                                if (!link.socket) attach(link, socket, {}, none);
-                              });
+          asio::async_connect(
+              *socket, endpoints,
+              [this, &link, socket](const boost::system::error_code& ec, const tcp::endpoint&) {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (ec) return scheduleDial(link);
+                std::vector<InboxMessage> none;
+                if (!link.socket) attach(link, socket, {}, none);
+              });
         });
   }
 
@@ -155,40 +154,39 @@ struct Bridge::Impl {
     auto chunk = std::make_shared<std::array<std::uint8_t, kHelloMaxBytes>>();
     socket->async_read_some(
         asio::buffer(*chunk),
-        [this, socket, bytes, deadline, chunk](const boost::system::error_code& ec,
-                                               std::size_t n) {
+        [this, socket, bytes, deadline, chunk](const boost::system::error_code& ec, std::size_t n) {
           std::vector<InboxMessage> inbox;  // what came with the HELLO, delivered unlocked
           std::string peer;
           {
-          std::lock_guard<std::mutex> lock(mutex);
-          const auto give_up = [&](const std::string& reason) {
+            std::lock_guard<std::mutex> lock(mutex);
+            const auto give_up = [&](const std::string& reason) {
+              --unidentified;
+              ++refused_unidentified[reason];
+              warn("refused a connection from " + endpointText(*socket) + ": " + reason);
+              deadline->cancel();
+              socket->close();
+            };
+            if (ec) return give_up(ec == asio::error::operation_aborted ? "silent" : "closed");
+            bytes->insert(bytes->end(), chunk->begin(), chunk->begin() + n);
+            FrameDecoder decoder(params.team_key, kHelloMaxBytes);
+            decoder.feed(bytes->data(), bytes->size());
+            const auto frame = decoder.next();
+            if (decoder.error() != FrameError::kNone) return give_up(toString(decoder.error()));
+            if (!frame) {
+              if (bytes->size() > 2 * kHelloMaxBytes) return give_up("too large");
+              return identify(socket, bytes, deadline, false);
+            }
+            const auto hello =
+                frame->type == FrameType::kHello ? decodeHello(frame->payload) : std::nullopt;
+            if (!hello) return give_up("no HELLO");
+            const auto link = std::find_if(links.begin(), links.end(), [&](const auto& l) {
+              return l->config.name == hello->robot;
+            });
+            if (link == links.end()) return give_up("unknown robot " + hello->robot);
             --unidentified;
-            ++refused_unidentified[reason];
-            warn("refused a connection from " + endpointText(*socket) + ": " + reason);
             deadline->cancel();
-            socket->close();
-          };
-          if (ec) return give_up(ec == asio::error::operation_aborted ? "silent" : "closed");
-          bytes->insert(bytes->end(), chunk->begin(), chunk->begin() + n);
-          FrameDecoder decoder(params.team_key, kHelloMaxBytes);
-          decoder.feed(bytes->data(), bytes->size());
-          const auto frame = decoder.next();
-          if (decoder.error() != FrameError::kNone) return give_up(toString(decoder.error()));
-          if (!frame) {
-            if (bytes->size() > 2 * kHelloMaxBytes) return give_up("too large");
-            return identify(socket, bytes, deadline, false);
-          }
-          const auto hello = frame->type == FrameType::kHello ? decodeHello(frame->payload)
-                                                              : std::nullopt;
-          if (!hello) return give_up("no HELLO");
-          const auto link = std::find_if(links.begin(), links.end(), [&](const auto& l) {
-            return l->config.name == hello->robot;
-          });
-          if (link == links.end()) return give_up("unknown robot " + hello->robot);
-          --unidentified;
-          deadline->cancel();
-          peer = hello->robot;
-          attach(**link, socket, *bytes, inbox);
+            peer = hello->robot;
+            attach(**link, socket, *bytes, inbox);
           }
           for (auto& message : inbox) on_message(peer, std::move(message));
         });
@@ -231,7 +229,8 @@ struct Bridge::Impl {
           {
             std::lock_guard<std::mutex> lock(mutex);
             if (generation != link.generation) return;
-            if (ec) return close(link, ec == asio::error::eof ? "closed by the peer" : ec.message());
+            if (ec)
+              return close(link, ec == asio::error::eof ? "closed by the peer" : ec.message());
             if (!input(link, chunk->data(), n, inbox)) return;
             read(link);
             pump();  // acknowledgements
@@ -276,7 +275,8 @@ struct Bridge::Impl {
     double wait = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < links.size(); ++i) {
       Link& link = *links[i];
-      if (!out[i].empty()) write(link, std::make_shared<std::vector<std::uint8_t>>(std::move(out[i])));
+      if (!out[i].empty())
+        write(link, std::make_shared<std::vector<std::uint8_t>>(std::move(out[i])));
       if (link.socket && !link.writing) wait = std::min(wait, link.session.outputDelay(t));
     }
     if (std::isfinite(wait)) {
@@ -292,15 +292,15 @@ struct Bridge::Impl {
   void write(Link& link, const std::shared_ptr<std::vector<std::uint8_t>>& bytes) {
     link.writing = true;
     const auto generation = link.generation;
-    asio::async_write(*link.socket, asio::buffer(*bytes),
-                      [this, &link, bytes, generation](const boost::system::error_code& ec,
-                                                       std::size_t) {
-                        std::lock_guard<std::mutex> lock(mutex);
-                        if (generation != link.generation) return;
-                        link.writing = false;
-                        if (ec) return close(link, ec.message());
-                        pump();
-                      });
+    asio::async_write(
+        *link.socket, asio::buffer(*bytes),
+        [this, &link, bytes, generation](const boost::system::error_code& ec, std::size_t) {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (generation != link.generation) return;
+          link.writing = false;
+          if (ec) return close(link, ec.message());
+          pump();
+        });
   }
 
   void keepAlive() {
@@ -344,9 +344,9 @@ Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHa
   const auto total = std::make_shared<TokenBucket>(params.total_budget_bytes_per_s,
                                                    static_cast<double>(params.burst_bytes), 0.0);
   for (const PeerConfig& peer : params.peers) {
-    auto link = std::unique_ptr<Impl::Link>(new Impl::Link{
-        peer, params.listen_port == 0 || own_robot < peer.name,
-        PeerSession(own_robot, peer.name, params.team_key, session, 0.0)});
+    auto link = std::unique_ptr<Impl::Link>(
+        new Impl::Link{peer, params.listen_port == 0 || own_robot < peer.name,
+                       PeerSession(own_robot, peer.name, params.team_key, session, 0.0)});
     link->session.shareBucket(total);
     link->dial_timer = std::make_unique<asio::steady_timer>(m.io);
     m.links.push_back(std::move(link));
@@ -419,8 +419,8 @@ std::vector<LinkReport> Bridge::reports() {
     LinkReport r;
     r.peer = link->config.name;
     r.connected = static_cast<bool>(link->socket);
-    r.address = r.connected ? link->address
-                            : link->config.host + ":" + std::to_string(link->config.port);
+    r.address =
+        r.connected ? link->address : link->config.host + ":" + std::to_string(link->config.port);
     r.sent = link->session.counters();
     r.received = link->session.sessionCounters();
     r.queued_control = link->session.queued(Priority::kControl);
@@ -440,7 +440,8 @@ std::vector<LinkReport> Bridge::reports() {
   }
   if (!m.refused_unidentified.empty()) {
     LinkReport r;
-    for (const auto& [reason, count] : m.refused_unidentified) r.drops["refused: " + reason] = count;
+    for (const auto& [reason, count] : m.refused_unidentified)
+      r.drops["refused: " + reason] = count;
     reports.push_back(std::move(r));
   }
   return reports;

@@ -40,8 +40,8 @@ std::vector<std::string> BridgeParams::validate(const std::string& own_robot_nam
   check.inRange("fragment_bytes", fragment_bytes, 1024, 1 << 20);
   check.inRange("burst_bytes", burst_bytes, 1024, 1 << 26);
   check.require(static_cast<std::size_t>(burst_bytes) >= wireBytes(fragment_bytes),
-                "burst_bytes must be at least fragment_bytes + " +
-                    std::to_string(wireBytes(0)) + ", or a fragment can never be sent");
+                "burst_bytes must be at least fragment_bytes + " + std::to_string(wireBytes(0)) +
+                    ", or a fragment can never be sent");
   check.inRange("stats_period_s", stats_period_s, 0.05, 3600.0);
 
   std::set<std::string> names;

@@ -58,22 +58,22 @@ struct LinkProxy::Impl {
       pipe.reading = true;
       auto chunk = std::make_shared<std::vector<std::uint8_t>>(65536);
       auto self = shared_from_this();
-      pipe.from->async_read_some(asio::buffer(*chunk), [self, &pipe, chunk](
-                                                           const boost::system::error_code& ec,
-                                                           std::size_t n) {
-        pipe.reading = false;
-        if (ec || self->closed) return self->close();
-        chunk->resize(n);
-        const double t = self->proxy->now();
-        {
-          std::lock_guard<std::mutex> lock(self->proxy->mutex);
-          self->proxy->forwarded[pipe.towards_target].emplace_back(t, n);
-        }
-        pipe.queue.emplace_back(pipe.link.arrival(n, t), std::move(*chunk));
-        pipe.queued_bytes += n;
-        self->write(pipe);
-        self->read(pipe);
-      });
+      pipe.from->async_read_some(
+          asio::buffer(*chunk),
+          [self, &pipe, chunk](const boost::system::error_code& ec, std::size_t n) {
+            pipe.reading = false;
+            if (ec || self->closed) return self->close();
+            chunk->resize(n);
+            const double t = self->proxy->now();
+            {
+              std::lock_guard<std::mutex> lock(self->proxy->mutex);
+              self->proxy->forwarded[pipe.towards_target].emplace_back(t, n);
+            }
+            pipe.queue.emplace_back(pipe.link.arrival(n, t), std::move(*chunk));
+            pipe.queued_bytes += n;
+            self->write(pipe);
+            self->read(pipe);
+          });
     }
 
     void write(Pipe& pipe) {

@@ -66,7 +66,8 @@ std::uint64_t getU64(const std::vector<std::uint8_t>& in, std::size_t at) {
 // HELLO payload: the incarnation (8 bytes) and the robot name.
 std::vector<std::uint8_t> encodeHello(const Hello& hello) {
   std::vector<std::uint8_t> out;
-  for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(hello.incarnation >> (8 * i)));
+  for (int i = 0; i < 8; ++i)
+    out.push_back(static_cast<std::uint8_t>(hello.incarnation >> (8 * i)));
   out.insert(out.end(), hello.robot.begin(), hello.robot.end());
   return out;
 }
@@ -177,7 +178,8 @@ bool PeerSession::refuse(std::string reason) {
 bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) {
   const auto hello = decodeHello(payload);
   if (!hello) return refuse("a malformed HELLO");
-  if (hello->robot != peer_) return refuse("the peer says it is '" + hello->robot + "', not " + peer_);
+  if (hello->robot != peer_)
+    return refuse("the peer says it is '" + hello->robot + "', not " + peer_);
   peer_said_hello_ = true;
   const bool restarted = peer_incarnation_ != hello->incarnation;
   // A restarted peer's sequences start again.
@@ -186,9 +188,8 @@ bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) 
   // The latest latched messages: reliable ones for a new peer process (unless waiting in the
   // outbox anyway), unreliable ones on every connection (they may have been lost with the last).
   for (auto& [topic, latest] : latched_) {
-    const bool resend = topics_[topic - 1].reliable
-                            ? restarted && !outbox_.pending(topic, latest.first)
-                            : true;
+    const bool resend =
+        topics_[topic - 1].reliable ? restarted && !outbox_.pending(topic, latest.first) : true;
     if (resend) scheduler_.enqueue(topic, latest.second, now_s, FrameType::kData, latest.first);
   }
   return true;
