@@ -96,9 +96,12 @@ TEST(ParamsValidation, Broker) {
 
 TEST(ParamsValidation, BridgePeersAndTopics) {
   transport::BridgeParams p;
+  p.team_key = "a key of sixteen or more";
   p.peers = {
       {"robot_b", "10.0.0.2", 17001}, {"robot_b", "10.0.0.3", 17001}, {"robot_a", "", 70000}};
-  p.topics = {{"outbox/scans", transport::Priority::kBulk}, {"/tf", transport::Priority::kControl}};
+  p.topics.resize(2);
+  p.topics[0].topic = "outbox/scans";
+  p.topics[1].topic = "/tf";
   const auto errors = p.validate("robot_a");
   EXPECT_TRUE(mentions(errors, "peers[1].name = 'robot_b' appears twice"));
   EXPECT_TRUE(mentions(errors, "peers[2].name = 'robot_a' is this robot's own name"));
