@@ -10,7 +10,7 @@ import math
 import time
 
 import rospy
-from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures, MapStats
+from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures, LinkStats, MapStats
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Path
 
@@ -23,6 +23,9 @@ class Report:
         self.trajectory = None
         self.broker = None
         self.map = None
+        self.links = {}
+        self.inbox_scans = 0
+        self.inbox_features = 0
         self.flows = {}
         self.levels = {}
         self.updated_at = {}
@@ -34,6 +37,10 @@ class Report:
             rospy.Subscriber("broker_stats", BrokerStats, self.on_broker, queue_size=1),
             rospy.Subscriber("map_stats", MapStats, self.on_map, queue_size=1),
             rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20),
+            rospy.Subscriber("link_stats", LinkStats, self.on_link, queue_size=20),
+            rospy.Subscriber("inbox/scans", Keyframe, self.on_inbox_scan, queue_size=100),
+            rospy.Subscriber("inbox/features", KeyframeFeatures, self.on_inbox_features,
+                             queue_size=100),
         ]
 
     def on_keyframe(self, msg):
@@ -56,6 +63,21 @@ class Report:
 
     def on_map(self, msg):
         self.map = msg
+
+    def on_link(self, msg):
+        if msg.peer:
+            self.links[msg.peer] = msg
+
+    def on_inbox_scan(self, msg):
+        self.inbox_scans += 1
+
+    def on_inbox_features(self, msg):
+        self.inbox_features += 1
+
+    def links_idle(self):
+        """Every link up and nothing waiting to be sent."""
+        return self.links and all(l.connected and l.queued_control + l.queued_bulk == 0
+                                  for l in self.links.values())
 
     def on_diagnostics(self, msg):
         for status in msg.status:
@@ -93,6 +115,14 @@ class Report:
                 "entropy_bits": self.map.entropy_bits,
                 "entropy_drop_bits": self.box_voxels() - self.map.entropy_bits,
                 "resolution_m": self.map.resolution_m, "rebuilds": self.map.rebuilds},
+            "links": {peer: {"connected": l.connected, "bytes_sent": l.bytes_sent,
+                             "bytes_received": l.bytes_received, "messages_sent": l.messages_sent,
+                             "messages_received": l.messages_received,
+                             "queued": l.queued_control + l.queued_bulk,
+                             "drops": dict(zip(l.drop_reasons, l.drop_counts))}
+                      for peer, l in sorted(self.links.items())},
+            "inbox_scans": self.inbox_scans,
+            "inbox_features": self.inbox_features,
             "nodelets": {name: {"level": self.levels[name], "flow": flow}
                          for name, flow in sorted(self.flows.items())},
             "keyframe_list": self.keyframes,
@@ -122,6 +152,17 @@ def main():
                 and report.map and report.map.keyframes == len(report.keyframes)):
             break
         time.sleep(0.1)
+    # The links drain what the mission queued (scans at 150 KB/s per robot): this robot's have
+    # nothing left to send and nothing has arrived from the teammates for 3 s.
+    drain = time.monotonic() + 60.0
+    received, quiet_since = None, time.monotonic()
+    while time.monotonic() < drain:
+        now_received = sum(l.messages_received for l in report.links.values())
+        if now_received != received:
+            received, quiet_since = now_received, time.monotonic()
+        if report.links_idle() and time.monotonic() - quiet_since > 3.0:
+            break
+        time.sleep(0.2)
     # One more diagnostics report from every nodelet, so each one's last counts are in.
     mark = time.monotonic()
     while time.monotonic() < mark + 5.0 and not all(t > mark for t in report.updated_at.values()):

@@ -31,6 +31,10 @@ def main():
             "word_sets": matcher.get("out features messages", 0),
             "own_loop_closures": matcher.get("out loop_closures (own) messages", 0),
             "scans_to_outbox": len(report["scans_to_outbox"]), "map": report.get("map"),
+            "team_loop_closures": matcher.get("out loop_closures (teammates) messages", 0),
+            "inbox_scans": report.get("inbox_scans", 0),
+            "inbox_features": report.get("inbox_features", 0),
+            "links": report.get("links", {}),
             "pipeline": report["nodelets"]})
     world = mission["world"]
     result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
@@ -53,6 +57,19 @@ def main():
             r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
             r["features_to_outbox"], r["scans_to_outbox"], m.get("known_volume_m3", 0),
             "-" if not m else "%.2f" % (m["entropy_drop_bits"] / 1e6)))
+    lines.append("  bridges (budget 150 KB/s per robot):")
+    lines.append("  %-9s %-9s %9s %9s %9s %9s %7s %6s" % (
+        "robot", "peer", "connected", "sent KB", "recv KB", "messages", "queued", "drops"))
+    for r in robots:
+        for peer, link in r["links"].items():
+            lines.append("  %-9s %-9s %9s %9.0f %9.0f %9d %7d %6d" % (
+                r["name"], peer, "yes" if link["connected"] else "no",
+                link["bytes_sent"] / 1e3, link["bytes_received"] / 1e3,
+                link["messages_received"], link["queued"],
+                sum(n for reason, n in link["drops"].items() if reason != "duplicate")))
+        lines.append("  %-9s received %d word sets and %d scans from teammates; %d inter-robot "
+                     "loop closures" % (r["name"], r["inbox_features"], r["inbox_scans"],
+                                        r["team_loop_closures"]))
     total_scans = sum(r["scans_in"] for r in robots)
     total_keyframes = sum(r["keyframes"] for r in robots)
     with open(args.out + "/summary.txt", "w") as f:
