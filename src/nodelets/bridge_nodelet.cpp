@@ -54,11 +54,14 @@ class BridgeNodelet final : public PipelineNodelet {
     }
     stats_pub_ = nh.advertise<LinkStats>(topics::kLinkStats, topics::kMessageQueueSize);
     for (const auto& forwarded : settings_.core.topics) {
-      subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
+      // Subscribed for the whole event: a lambda handed to subscribe<M>() binds to the ConstPtr
+      // overload and loses the connection header (and with it the latching flag).
+      using Event = const ros::MessageEvent<topic_tools::ShapeShifter const>&;
+      ros::SubscribeOptions options;
+      options.initByFullCallbackType<Event>(
           forwarded.topic, topics::kMessageQueueSize,
-          [this, forwarded](const ros::MessageEvent<topic_tools::ShapeShifter const>& event) {
-            onOutbox(forwarded, event);
-          }));
+          [this, forwarded](Event event) { onOutbox(forwarded, event); });
+      subs_.push_back(nh.subscribe(options));
     }
     if (settings_.core.peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
     stats_timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.stats_period_s),

@@ -173,6 +173,7 @@ class BridgeMasters(unittest.TestCase):
                         "  reconnect_min_s: 0.2\n  reconnect_max_s: 1.0\n  peer_timeout_s: 5.0\n"
                         "  peers: [%s]\n"
                         "  topics: [{topic: outbox/ping, priority: control},\n"
+                        "           {topic: outbox/state, priority: control},\n"
                         "           {topic: outbox/cloud, priority: bulk}]\n"
                         % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
             self.spawn("bridge_" + robot,
@@ -216,6 +217,8 @@ class BridgeMasters(unittest.TestCase):
         all_latencies = []
         for robot, result in results.items():
             for peer, got in result["received"].items():
+                self.assertEqual(result["latched"][peer], peer + "/state/0",
+                                 "%s's latched state at %s" % (peer, robot))
                 sent = results[peer]["sent"]
                 for kind in ("ping", "cloud"):
                     numbers = [m[0] for m in got[kind]]

@@ -5,7 +5,9 @@ From a given wall time it publishes, for a given time, PointCloud2 "scans" on ou
 (incompressible bytes) and small control messages (std_msgs/Header) on outbox/ping, numbered in
 frame_id and stamped with the wall time of sending. It records what arrives on
 inbox/<peer>/cloud and inbox/<peer>/ping from each teammate until everything each teammate sent
-has arrived (or a time limit passes), and writes it as JSON."""
+has arrived (or a time limit passes). It also latches one message on outbox/state before the
+traffic; at the end a new subscriber to each teammate's inbox/<peer>/state must still get it.
+Writes what it saw as JSON."""
 import argparse
 import json
 import os
@@ -52,6 +54,7 @@ def main():
             rospy.Subscriber("inbox/%s/cloud" % peer, PointCloud2, record(peer, "cloud"),
                              queue_size=1000))
     ping_pub = rospy.Publisher("outbox/ping", Header, queue_size=1000)
+    state_pub = rospy.Publisher("outbox/state", Header, queue_size=1, latch=True)
     cloud_pub = rospy.Publisher("outbox/cloud", PointCloud2, queue_size=100)
 
     # The bridge must be subscribed before anything is sent (it cannot forward what it missed).
@@ -62,6 +65,7 @@ def main():
     if ping_pub.get_num_connections() == 0:
         raise SystemExit("the bridge never subscribed to outbox/ping")
 
+    state_pub.publish(Header(frame_id="%s/state/0" % args.robot))
     time.sleep(max(0.0, args.start_at - time.time()))  # the team's common schedule
     points = args.cloud_bytes // 16
     for k in range(pings):
@@ -89,9 +93,17 @@ def main():
     while not complete() and time.time() < deadline and not rospy.is_shutdown():
         time.sleep(0.1)
     time.sleep(1.0)  # anything arriving twice would arrive now
+    # Subscribed only now: the teammates' state reaches us only if their inbox topic is latched.
+    latched = {}
+    for peer in peers:
+        try:
+            msg = rospy.wait_for_message("inbox/%s/state" % peer, Header, timeout=10.0)
+            latched[peer] = msg.frame_id
+        except rospy.ROSException:
+            latched[peer] = None
     with lock:
         result = {"robot": args.robot, "sent": {"ping": pings, "cloud": clouds},
-                  "received": received}
+                  "received": received, "latched": latched}
     with open(args.out, "w") as f:
         json.dump(result, f)
 
