@@ -45,7 +45,13 @@ class BridgeNodelet final : public PipelineNodelet {
           [this](const std::string& peer, transport::InboxMessage message) {
             onInbox(peer, std::move(message));
           },
-          [this](const std::string& text) { NODELET_WARN_THROTTLE(1.0, "%s", text.c_str()); });
+          [this](bool warning, const std::string& text) {
+            if (warning) {
+              NODELET_WARN_THROTTLE(1.0, "%s", text.c_str());
+            } else {
+              NODELET_INFO_THROTTLE(1.0, "%s", text.c_str());
+            }
+          });
       bridge_->start();
     } catch (const std::exception& e) {
       bridge_.reset();

@@ -97,7 +97,7 @@ Result run(const Options& o, bool control_first) {
   pb.listen_port = port_b;
   pb.peers = {{"robot_a", "127.0.0.1", port_a}};
   Bridge a(
-      pa, "robot_a", [](auto&&...) {}, [](auto&&) {});
+      pa, "robot_a", [](auto&&...) {}, [](auto&&...) {});
   Bridge b(
       pb, "robot_b",
       [&](const std::string&, InboxMessage m) {
@@ -106,7 +106,7 @@ Result run(const Options& o, bool control_first) {
         if (m.topic.name == "inbox/control") control_arrived[number(m.bytes)] = Clock::now();
         changed.notify_all();
       },
-      [](auto&&) {});
+      [](auto&&...) {});
   b.start();
   a.start();
 

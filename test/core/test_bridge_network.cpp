@@ -102,13 +102,13 @@ TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
   std::mutex warnings_mutex;
   // robot_a sorts first: it dials robot_b, through the proxy.
   Bridge a(
-      params(port_a, "robot_b", proxy.port()), "robot_a", [](auto&&...) {}, [](auto&&) {});
+      params(port_a, "robot_b", proxy.port()), "robot_a", [](auto&&...) {}, [](auto&&...) {});
   Bridge b(
       params(port_b, "robot_a", port_a), "robot_b",
       [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
-      [&](const std::string& text) {
+      [&](bool warning, const std::string& text) {
         std::lock_guard<std::mutex> lock(warnings_mutex);
-        warnings_b.push_back(text);
+        if (warning) warnings_b.push_back(text);
       });
   a.start();
   b.start();
@@ -184,11 +184,11 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   const int port_b = freePort();
   Inbox at_b;
   Bridge a(
-      params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&) {});
+      params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&...) {});
   Bridge b(
       params(port_b, "robot_a", port_a), "robot_b",
       [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
-      [](auto&&) {});
+      [](auto&&...) {});
   b.start();
 
   // A stranger: garbage, then a well-formed HELLO under another key.

@@ -57,7 +57,7 @@ struct Bridge::Impl {
   BridgeParams params;
   std::string own;
   InboxHandler on_message;
-  LogHandler on_warning;
+  LogHandler on_log;
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
 
   asio::io_context io;
@@ -83,7 +83,7 @@ struct Bridge::Impl {
         std::chrono::duration<double>(std::max(0.0, s)));
   }
   void warn(const std::string& text) {
-    if (on_warning) on_warning(text);
+    if (on_log) on_log(true, text);
   }
 
   // --- connections (all on the thread, with the mutex held) ---
@@ -202,6 +202,7 @@ struct Bridge::Impl {
     ++link.generation;
     link.connected_at_s = now();
     link.session.connected(now());
+    if (on_log) on_log(false, "link to " + link.config.name + " (" + link.address + ") up");
     if (!first_bytes.empty() && !input(link, first_bytes.data(), first_bytes.size(), inbox)) {
       return;
     }
@@ -326,7 +327,7 @@ struct Bridge::Impl {
 };
 
 Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-               LogHandler on_warning)
+               LogHandler on_log)
     : impl_(std::make_unique<Impl>()) {
   const auto errors = params.validate(own_robot);
   if (!errors.empty()) throw std::invalid_argument("Bridge: " + errors.front());
@@ -334,7 +335,7 @@ Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHa
   m.params = params;
   m.own = own_robot;
   m.on_message = std::move(on_message);
-  m.on_warning = std::move(on_warning);
+  m.on_log = std::move(on_log);
   SessionParams session;
   session.budget_bytes_per_s = params.budget_bytes_per_s;
   session.burst_bytes = static_cast<std::size_t>(params.burst_bytes);

@@ -37,12 +37,13 @@ struct LinkReport {
 class Bridge {
  public:
   using InboxHandler = std::function<void(const std::string& peer, InboxMessage message)>;
-  using LogHandler = std::function<void(const std::string& text)>;
+  /// A link came up (false) or something went wrong (true): closed, refused, unresolvable.
+  using LogHandler = std::function<void(bool warning, const std::string& text)>;
 
   /// Throws std::invalid_argument when params.validate(own_robot) reports errors.
-  /// `on_message` and `on_warning` run on the bridge's thread.
+  /// `on_message` and `on_log` run on the bridge's thread.
   Bridge(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-         LogHandler on_warning);
+         LogHandler on_log);
   ~Bridge();
   Bridge(const Bridge&) = delete;
   Bridge& operator=(const Bridge&) = delete;
