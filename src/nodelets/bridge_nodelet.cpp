@@ -46,10 +46,12 @@ class BridgeNodelet final : public PipelineNodelet {
             onInbox(peer, std::move(message));
           },
           [this](bool warning, const std::string& text) {
+            // A link comes up at most once per redial (>= reconnect_min_s); refusals can come
+            // as fast as a stranger connects.
             if (warning) {
               NODELET_WARN_THROTTLE(1.0, "%s", text.c_str());
             } else {
-              NODELET_INFO_THROTTLE(1.0, "%s", text.c_str());
+              NODELET_INFO("%s", text.c_str());
             }
           });
       bridge_->start();
