@@ -206,7 +206,26 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
     stranger.read_some(boost::asio::buffer(reply), ec);  // returns when b closes it
     EXPECT_TRUE(ec) << "b closed the stranger's connection";
   }
-  const auto reports = b.reports();
+  // A HELLO with the key, then half a frame, then gone: identified, and counted as truncated.
+  {
+    auto bytes = encodeFrame({FrameType::kHello, 0, 0, 1, 0, 1, encodeHello({"robot_a", 7})}, kKey);
+    const auto next =
+        encodeFrame({FrameType::kAck, 0, 0, 1, 0, 1, std::vector<std::uint8_t>(10)}, kKey);
+    bytes.insert(bytes.end(), next.begin(), next.begin() + 20);
+    boost::asio::ip::tcp::socket half(io);
+    half.connect({boost::asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port_b)});
+    boost::asio::write(half, boost::asio::buffer(bytes));
+    // b answers the HELLO with its own: read it, so the close comes after b has our bytes.
+    std::array<std::uint8_t, 16> reply;
+    boost::asio::read(half, boost::asio::buffer(reply));
+  }
+  std::vector<LinkReport> reports;
+  for (int i = 0; i < 100; ++i) {  // b sees the close on its own thread
+    reports = b.reports();
+    if (reports[0].drops.count("truncated")) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(reports[0].drops["truncated"], 1U);
   ASSERT_EQ(reports.size(), 2U);
   EXPECT_EQ(reports[1].peer, "");
   EXPECT_EQ(reports[1].drops.at("refused: bad magic"), 1U);

@@ -242,6 +242,9 @@ struct Bridge::Impl {
 
   void close(Link& link, const std::string& why, const std::string& drop_reason = "") {
     if (!drop_reason.empty()) ++link.refused["refused: " + drop_reason];
+    if (drop_reason.empty() && link.socket && link.session.partialInputBytes() > 0) {
+      ++link.refused["truncated"];  // the connection ended inside a frame
+    }
     if (link.socket) {
       warn("link to " + link.config.name + " (" + link.address + ") closed: " + why);
       boost::system::error_code ignored;

@@ -106,6 +106,8 @@ class PeerSession {
              std::vector<InboxMessage>& inbox);
 
   const std::string& reason() const { return reason_; }
+  /// Bytes read and not yet a whole frame: a connection closing with some left was truncated.
+  std::size_t partialInputBytes() const { return decoder_.buffered(); }
   const LinkCounters& counters() const { return scheduler_.counters(); }
   const SessionCounters& sessionCounters() const { return counters_; }
   std::size_t queued(Priority priority) const { return scheduler_.queued(priority); }
