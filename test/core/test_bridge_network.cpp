@@ -236,5 +236,22 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 10.0));
 }
 
+TEST(BridgeNetwork, APortInUseIsAnErrorNamingTheParameter) {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::acceptor taken(io, {boost::asio::ip::tcp::v4(), 0});
+  Bridge bridge(
+      params(taken.local_endpoint().port(), "robot_b", 1), "robot_a", [](auto&&...) {},
+      [](auto&&...) {});
+  try {
+    bridge.start();
+    FAIL() << "started on a port in use";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("listen_port"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Bridge(BridgeParams{params(0, "robot_a", 1)}, "robot_a", nullptr, nullptr),
+               std::invalid_argument)
+      << "a peer named like this robot";
+}
+
 }  // namespace
 }  // namespace ccir_mapping::core::transport
