@@ -232,9 +232,12 @@ class BackendNodelet final : public PipelineNodelet {
     if (loop_marker_pub_.getNumSubscribers() > 0) publishLoopMarkers(snapshot, stamp);
 
     std::vector<geometry_msgs::TransformStamped> transforms;
+    // A re-optimisation without a new keyframe (a teammate's scan, a loop closure) must still
+    // reach tf: tf2 ignores a transform repeated at a stamp it has, so the stamp moves on by 1 us.
+    const ros::Time tf_stamp = std::max(stamp, last_tf_stamp_ + ros::Duration(1e-6));
     if (settings_.publish_tf) {
       geometry_msgs::TransformStamped map_to_odom;
-      map_to_odom.header.stamp = stamp;
+      map_to_odom.header.stamp = tf_stamp;
       map_to_odom.header.frame_id = settings_.frames.map_frame;
       map_to_odom.child_frame_id = settings_.frames.odom_frame;
       map_to_odom.transform =
@@ -262,6 +265,7 @@ class BackendNodelet final : public PipelineNodelet {
       if (a.found && settings_.publish_tf) {
         geometry_msgs::TransformStamped team;
         team.header = msg->header;
+        team.header.stamp = tf_stamp;
         team.child_frame_id = msg->child_frame_id;
         team.transform = msg->transform;
         transforms.push_back(team);
@@ -269,7 +273,10 @@ class BackendNodelet final : public PipelineNodelet {
       if (!a.found)
         NODELET_DEBUG("no transform to %s yet: %s", estimate.peer.c_str(), a.reason.c_str());
     }
-    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+    if (!transforms.empty()) {
+      tf_broadcaster_.sendTransform(transforms);
+      last_tf_stamp_ = tf_stamp;
+    }
 
     if (uncertainty_pub_.getNumSubscribers() > 0) {
       if (const auto covariance = graph_->covariances({snapshot.ids.back()})) {
@@ -315,6 +322,7 @@ class BackendNodelet final : public PipelineNodelet {
   ros::Subscriber peer_sub_;
   ros::Subscriber loop_sub_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ros::Time last_tf_stamp_;  // of the last transforms sent (worker thread only)
 };
 
 }  // namespace ccir_mapping

@@ -1,13 +1,17 @@
 // Two robots' keyframes and inter-robot loop closures, most of them false, into robot_a's
 // pipeline (launch/robot.launch): the Backend must put the true transform to robot_b's frame on
 // tf and announce it as a valid TeamTransform. Unusable closures among them are counted as dropped.
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <mutex>
 
 #include <gtest/gtest.h>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 #include <Eigen/Geometry>
@@ -42,6 +46,16 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
               dropped_loops = std::stod(entry.value);
           }
         }
+      });
+  // Every re-optimisation must reach tf: a transform repeated at a stamp already sent is
+  // ignored by tf2 (TF_REPEATED_DATA), so the stamps of each child frame must all differ.
+  std::map<std::string, std::vector<double>> tf_stamps;
+  std::mutex tf_mutex;
+  ros::Subscriber tf_sub =
+      nh.subscribe<tf2_msgs::TFMessage>("/tf", 1000, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(tf_mutex);
+        for (const auto& t : m->transforms)
+          tf_stamps[t.child_frame_id].push_back(t.header.stamp.toSec());
       });
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
@@ -126,6 +140,15 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   const Eigen::Isometry3d error = s.truth.inverse() * estimate;
   EXPECT_LT(error.translation().norm(), 0.1);
   EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 1.0);
+
+  std::lock_guard<std::mutex> lock(tf_mutex);
+  EXPECT_GT(tf_stamps["robot_a/odom"].size(), 1U) << "map -> odom re-sent after optimisations";
+  for (const std::string child : {"robot_a/odom", "robot_b/map"}) {
+    auto stamps = tf_stamps[child];
+    std::sort(stamps.begin(), stamps.end());
+    EXPECT_EQ(std::adjacent_find(stamps.begin(), stamps.end()), stamps.end())
+        << child << " sent twice at one stamp: tf2 ignores the second";
+  }
 }
 
 }  // namespace
