@@ -10,7 +10,8 @@ import math
 import time
 
 import rospy
-from ccir_mapping.msg import BrokerStats, Keyframe, KeyframeFeatures, LinkStats, MapStats
+from ccir_mapping.msg import (BrokerStats, Keyframe, KeyframeFeatures, LinkStats, MapStats,
+                              TeamTransform)
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Path
 
@@ -24,6 +25,7 @@ class Report:
         self.broker = None
         self.map = None
         self.links = {}
+        self.team = {}
         self.inbox_scans = 0
         self.inbox_features = 0
         self.flows = {}
@@ -38,6 +40,7 @@ class Report:
             rospy.Subscriber("map_stats", MapStats, self.on_map, queue_size=1),
             rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20),
             rospy.Subscriber("link_stats", LinkStats, self.on_link, queue_size=20),
+            rospy.Subscriber("team_transforms", TeamTransform, self.on_team, queue_size=20),
             rospy.Subscriber("inbox/scans", Keyframe, self.on_inbox_scan, queue_size=100),
             rospy.Subscriber("inbox/features", KeyframeFeatures, self.on_inbox_features,
                              queue_size=100),
@@ -67,6 +70,9 @@ class Report:
     def on_link(self, msg):
         if msg.peer:
             self.links[msg.peer] = msg
+
+    def on_team(self, msg):
+        self.team[msg.peer] = msg
 
     def on_inbox_scan(self, msg):
         self.inbox_scans += 1
@@ -121,6 +127,13 @@ class Report:
                              "queued": l.queued_control + l.queued_bulk,
                              "drops": dict(zip(l.drop_reasons, l.drop_counts))}
                       for peer, l in sorted(self.links.items())},
+            "team_transforms": {peer: {
+                "valid": t.valid, "inliers": t.inliers, "candidates": t.candidates,
+                "translation": [t.transform.translation.x, t.transform.translation.y,
+                                t.transform.translation.z],
+                "rotation_xyzw": [t.transform.rotation.x, t.transform.rotation.y,
+                                  t.transform.rotation.z, t.transform.rotation.w]}
+                for peer, t in sorted(self.team.items())},
             "inbox_scans": self.inbox_scans,
             "inbox_features": self.inbox_features,
             "nodelets": {name: {"level": self.levels[name], "flow": flow}
@@ -154,7 +167,7 @@ def main():
         time.sleep(0.1)
     # The links drain what the mission queued (scans at 150 KB/s per robot): this robot's have
     # nothing left to send and no byte has arrived from the teammates for 3 s.
-    drain = time.monotonic() + 60.0
+    drain = time.monotonic() + 90.0
     received, quiet_since = None, time.monotonic()
     while time.monotonic() < drain:
         now_received = sum(l.bytes_received for l in report.links.values())

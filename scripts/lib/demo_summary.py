@@ -4,9 +4,46 @@
 keyframe."""
 import argparse
 import json
+import math
+import os
 import sys
 
+import numpy as np
 import yaml
+
+
+def matrix(translation, xyzw):
+    """4 x 4 rigid transform from a translation and a unit quaternion (x, y, z, w)."""
+    x, y, z, w = xyzw
+    m = np.identity(4)
+    m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    m[:3, 3] = translation
+    return m
+
+
+def start_pose(plan):
+    """Where a robot's odom (and map) frame sits in the world."""
+    p = plan["initial_pose_in_world"]
+    return matrix([p["x"], p["y"], p["z"]], [p["qx"], p["qy"], p["qz"], p["qw"]])
+
+
+def team_frames(robot, report, plans):
+    """What a robot knows of each teammate's map frame: the Backend's last TeamTransform, and
+    for a valid one its error against the truth (metres, degrees)."""
+    known = []
+    for peer, t in report.get("team_transforms", {}).items():
+        entry = {"peer": peer, "valid": t["valid"], "inliers": t["inliers"],
+                 "candidates": t["candidates"]}
+        if t["valid"] and peer in plans:
+            truth = np.linalg.inv(start_pose(plans[robot])) @ start_pose(plans[peer])
+            error = np.linalg.inv(truth) @ matrix(t["translation"], t["rotation_xyzw"])
+            cos = max(-1.0, min(1.0, (np.trace(error[:3, :3]) - 1) / 2))
+            entry["error_m"] = float(np.linalg.norm(error[:3, 3]))
+            entry["error_deg"] = math.degrees(math.acos(cos))
+        known.append(entry)
+    return known
 
 
 def main():
@@ -15,6 +52,9 @@ def main():
     args = parser.parse_args()
     mission = yaml.safe_load(open(args.out + "/mission/mission.yaml"))
     robots = []
+    plans = {plan["name"]: plan for plan in mission["robots"]}
+    config = os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../config/robot.yaml")
+    needed = yaml.safe_load(open(config))["backend"]["min_team_inliers"]
     for plan in mission["robots"]:
         report = json.load(open("%s/%s/report.json" % (args.out, plan["name"])))
         flow = report["nodelets"].get("preprocessor", {}).get("flow", {})
@@ -35,6 +75,7 @@ def main():
             "inbox_scans": report.get("inbox_scans", 0),
             "inbox_features": report.get("inbox_features", 0),
             "links": report.get("links", {}),
+            "team_frames": team_frames(plan["name"], report, plans),
             "pipeline": report["nodelets"]})
     world = mission["world"]
     result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
@@ -70,6 +111,16 @@ def main():
         lines.append("  %-9s received %d word sets and %d scans from teammates; %d inter-robot "
                      "loop closures" % (r["name"], r["inbox_features"], r["inbox_scans"],
                                         r["team_loop_closures"]))
+        for t in r["team_frames"]:
+            if "error_m" in t:
+                lines.append("  %-9s knows %s's map frame from %d of %d loop closures: %.2f m, "
+                             "%.1f deg from the truth" % (r["name"], t["peer"], t["inliers"],
+                                                          t["candidates"], t["error_m"],
+                                                          t["error_deg"]))
+            else:
+                lines.append("  %-9s does not know %s's map frame yet: %d inter-robot loop "
+                             "closures, %d agreeing ones needed" % (r["name"], t["peer"],
+                                                                   t["candidates"], needed))
     total_scans = sum(r["scans_in"] for r in robots)
     total_keyframes = sum(r["keyframes"] for r in robots)
     with open(args.out + "/summary.txt", "w") as f:
