@@ -166,11 +166,11 @@ def main():
             break
         time.sleep(0.1)
     # The links drain what the mission queued (scans at 150 KB/s per robot): this robot's have
-    # nothing left to send and no byte has arrived from the teammates for 3 s.
+    # nothing left to send and no byte has gone either way for 3 s.
     drain = time.monotonic() + 90.0
     received, quiet_since = None, time.monotonic()
     while time.monotonic() < drain:
-        now_received = sum(l.bytes_received for l in report.links.values())
+        now_received = sum(l.bytes_received + l.bytes_sent for l in report.links.values())
         if now_received != received:
             received, quiet_since = now_received, time.monotonic()
         if report.links_idle() and time.monotonic() - quiet_since > 3.0:

@@ -116,8 +116,10 @@ void LinkScheduler::clear() {
 }
 
 std::size_t LinkScheduler::queued(Priority priority) const {
-  const auto it = waiting_.find(priority);
-  return it == waiting_.end() ? 0 : it->second.size();
+  const auto waiting = waiting_.find(priority);
+  const auto in_flight = in_flight_.find(priority);
+  return (waiting == waiting_.end() ? 0 : waiting->second.size()) +
+         (in_flight == in_flight_.end() || in_flight->second.empty() ? 0 : 1);
 }
 
 }  // namespace ccir_mapping::core::transport

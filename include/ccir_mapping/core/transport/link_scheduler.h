@@ -54,6 +54,7 @@ class LinkScheduler {
   /// Seconds until next() can send (0 if it can now), or infinity when nothing is queued.
   double delay(double now_s);
 
+  /// Messages of a class not yet sent whole (waiting, and the one whose fragments are going).
   std::size_t queued(Priority priority) const;
   const LinkCounters& counters() const { return counters_; }
 
