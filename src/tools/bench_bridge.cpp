@@ -16,7 +16,6 @@
 #include <random>
 #include <thread>
 
-#include <boost/asio.hpp>
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/transport/bridge.h"
@@ -27,13 +26,6 @@ using namespace ccir_mapping::core::transport;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-int freePort() {
-  boost::asio::io_context io;
-  boost::asio::ip::tcp::acceptor acceptor(
-      io, boost::asio::ip::tcp::endpoint(boost::asio::ip::make_address("127.0.0.1"), 0));
-  return acceptor.local_endpoint().port();
-}
 
 double cpuSeconds() {
   timespec ts{};
@@ -76,8 +68,8 @@ Result run(const Options& o, bool control_first) {
   p.team_key = "bench team key, long enough";
   p.budget_bytes_per_s = o.budget;
   p.total_budget_bytes_per_s = o.budget;
-  const int port_a = freePort();
-  const int port_b = freePort();
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
   LinkProxyParams link;
   link.target_port = port_b;
   link.link.rate_bytes_per_s = 10.0 * o.budget;

@@ -23,13 +23,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 const std::string kKey = "a team key of some length";
 
-int freePort() {
-  boost::asio::io_context io;
-  boost::asio::ip::tcp::acceptor acceptor(
-      io, boost::asio::ip::tcp::endpoint(boost::asio::ip::make_address("127.0.0.1"), 0));
-  return acceptor.local_endpoint().port();
-}
-
 /// What one bridge received, awaitable.
 struct Inbox {
   std::mutex mutex;
@@ -88,8 +81,8 @@ std::uint32_t number(const std::vector<std::uint8_t>& bytes) {
 }
 
 TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
-  const int port_a = freePort();
-  const int port_b = freePort();
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
   LinkProxyParams link;
   link.target_port = port_b;
   link.link.rate_bytes_per_s = 1e6;  // faster than the budget: the bridge is what limits
@@ -180,8 +173,8 @@ TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
 }
 
 TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
-  const int port_a = freePort();
-  const int port_b = freePort();
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
   Inbox at_b;
   Bridge a(
       params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&...) {});

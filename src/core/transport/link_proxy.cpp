@@ -20,6 +20,12 @@ constexpr std::size_t kMaxBufferedBytes = 1 << 20;
 
 }  // namespace
 
+int freeLoopbackPort() {
+  asio::io_context io;
+  tcp::acceptor acceptor(io, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0));
+  return acceptor.local_endpoint().port();
+}
+
 struct LinkProxy::Impl {
   struct Connection;
 

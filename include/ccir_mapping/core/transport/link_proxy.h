@@ -24,6 +24,10 @@ struct LinkProxyParams {
   LinkEmulatorParams link;
 };
 
+/// A TCP port on 127.0.0.1 that was free a moment ago (for tests and benchmarks that start
+/// several listeners).
+int freeLoopbackPort();
+
 class LinkProxy {
  public:
   /// Throws std::invalid_argument for a bad link or target, std::runtime_error when the port
