@@ -108,6 +108,13 @@ class BridgeNodelet final : public PipelineNodelet {
       count("dropped from " + peer);
       return;
     }
+    if (topic.type.find('/') == std::string::npos || topic.md5.size() != 32) {
+      NODELET_WARN_THROTTLE(5.0, "dropping a message from %s on %s: type '%s', md5 '%s'",
+                            peer.c_str(), topic.name.c_str(), topic.type.c_str(),
+                            topic.md5.c_str());
+      count("dropped from " + peer);
+      return;
+    }
     auto msg = boost::make_shared<topic_tools::ShapeShifter>();
     msg->morph(topic.md5, topic.type, topic.definition, topic.latched ? "1" : "0");
     ros::serialization::IStream stream(message.bytes.data(),
@@ -132,6 +139,7 @@ class BridgeNodelet final : public PipelineNodelet {
       if (inbox.md5 != topic.md5) {
         NODELET_WARN_THROTTLE(5.0, "dropping %s from %s on %s: another type than before",
                               topic.type.c_str(), peer.c_str(), name.c_str());
+        count("dropped " + name + " (another type)");
         continue;
       }
       if (inbox.held.empty() && ros::WallTime::now() >= inbox.ready) {
