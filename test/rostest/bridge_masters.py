@@ -51,7 +51,8 @@ def executable(name):
 class BridgeMasters(unittest.TestCase):
     def setUp(self):
         self.netns = rospy.get_param("~netns", False)
-        self.robots = ["robot_%s" % c for c in "abcdefgh"[: 2 if self.netns else rospy.get_param("~robots", 2)]]
+        count = 2 if self.netns else rospy.get_param("~robots", 2)
+        self.robots = ["robot_%s" % c for c in "abcdefgh"[:count]]
         self.duration_s = rospy.get_param("~duration_s", 12.0)
         # A cloud every 3 control messages (6.7 Hz): a third more than the budget takes.
         self.cloud_bytes = rospy.get_param("~cloud_bytes", 30000)
@@ -84,10 +85,20 @@ class BridgeMasters(unittest.TestCase):
             holders.append(holder)
         prefixes, hosts = {}, {}
         try:
-            time.sleep(0.2)  # unshare has entered its namespace before it execs sleep
+            own = os.readlink("/proc/self/ns/net")
             for holder in holders:
-                if holder.poll() is not None:
-                    raise RuntimeError("unshare --net failed")
+                deadline = time.time() + 10
+                while True:  # until unshare has moved into its new namespace
+                    if holder.poll() is not None:
+                        raise RuntimeError("unshare --net failed")
+                    try:
+                        if os.readlink("/proc/%d/ns/net" % holder.pid) != own:
+                            break
+                    except OSError:
+                        pass
+                    if time.time() > deadline:
+                        raise RuntimeError("unshare --net made no namespace")
+                    time.sleep(0.01)
             a, b = (["nsenter", "-t", str(h.pid), "-n"] for h in holders)
             self.check_call(a + ["ip", "link", "add", "v1", "type", "veth", "peer", "name", "v2"])
             self.check_call(a + ["ip", "link", "set", "v2", "netns", str(holders[1].pid)])
