@@ -94,7 +94,12 @@ class BridgeNodelet final : public PipelineNodelet {
     std::vector<std::uint8_t> bytes(msg.size());
     ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
     msg.write(stream);
-    bridge_->publish(topic, std::move(bytes));
+    if (!bridge_->publish(topic, std::move(bytes))) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "not forwarding %s: its type is now %s, teammates know it as another",
+                            forwarded.topic.c_str(), topic.type.c_str());
+      count("dropped " + forwarded.topic + " (another type)");
+    }
   }
 
   // On the bridge's thread.

@@ -225,7 +225,11 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   EXPECT_EQ(reports[1].drops.at("refused: bad mac"), 1U);
 
   a.start();
-  a.publish(topic("inbox/offers", Priority::kControl), numbered(100, 0));
+  EXPECT_TRUE(a.publish(topic("inbox/offers", Priority::kControl), numbered(100, 0)));
+  TopicInfo retyped = topic("inbox/offers", Priority::kControl);
+  retyped.md5 = "fedcba9876543210fedcba9876543210";
+  EXPECT_FALSE(a.publish(retyped, numbered(100, 1))) << "a topic keeps the type it started with";
+  EXPECT_EQ(a.reports()[0].drops.at("type_changed"), 1U);
   EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 10.0));
 }
 

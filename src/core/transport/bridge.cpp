@@ -11,6 +11,8 @@
 
 #include <boost/asio.hpp>
 
+#include "listen.h"
+
 namespace ccir_mapping::core::transport {
 namespace {
 
@@ -368,12 +370,8 @@ Bridge::~Bridge() {
 void Bridge::start() {
   Impl& m = *impl_;
   if (m.params.listen_port != 0) {
-    boost::system::error_code ec;
-    const tcp::endpoint endpoint(tcp::v4(), static_cast<unsigned short>(m.params.listen_port));
-    m.acceptor.open(endpoint.protocol(), ec);
-    if (!ec) m.acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
-    if (!ec) m.acceptor.bind(endpoint, ec);
-    if (!ec) m.acceptor.listen(asio::socket_base::max_listen_connections, ec);
+    const auto ec =
+        listen(m.acceptor, {tcp::v4(), static_cast<unsigned short>(m.params.listen_port)});
     if (ec) {
       throw std::runtime_error("cannot listen on listen_port " +
                                std::to_string(m.params.listen_port) + ": " + ec.message());
@@ -390,7 +388,7 @@ void Bridge::start() {
   m.thread = std::thread([&m] { m.io.run(); });
 }
 
-void Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) {
+bool Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   const double t = m.now();
@@ -401,7 +399,7 @@ void Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) 
     known = m.topics.emplace(topic.name, std::make_pair(topic, ids)).first;
   } else if (known->second.first.md5 != topic.md5) {
     ++m.type_changed;
-    return;
+    return false;
   }
   for (std::size_t i = 0; i < m.links.size(); ++i) {
     // The last link takes the message itself, the others a copy.
@@ -412,6 +410,7 @@ void Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) 
     std::lock_guard<std::mutex> lock(m.mutex);
     m.pump();
   });
+  return true;
 }
 
 std::vector<LinkReport> Bridge::reports() {

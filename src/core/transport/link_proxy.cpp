@@ -9,6 +9,8 @@
 
 #include <boost/asio.hpp>
 
+#include "listen.h"
+
 namespace ccir_mapping::core::transport {
 namespace {
 
@@ -168,13 +170,8 @@ LinkProxy::LinkProxy(const LinkProxyParams& params) : impl_(std::make_unique<Imp
   }
   m.params = params;
   m.seed = params.link.seed;
-  boost::system::error_code ec;
-  const tcp::endpoint endpoint(asio::ip::make_address("127.0.0.1"),
-                               static_cast<unsigned short>(params.listen_port));
-  m.acceptor.open(endpoint.protocol(), ec);
-  if (!ec) m.acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
-  if (!ec) m.acceptor.bind(endpoint, ec);
-  if (!ec) m.acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  const auto ec = listen(m.acceptor, {asio::ip::make_address("127.0.0.1"),
+                                      static_cast<unsigned short>(params.listen_port)});
   if (ec) {
     throw std::runtime_error("LinkProxy: cannot listen on port " +
                              std::to_string(params.listen_port) + ": " + ec.message());

@@ -52,8 +52,8 @@ class Bridge {
   /// the thread.
   void start();
   /// A local message for every peer (thread-safe). The first message of a topic name fixes its
-  /// type; later ones of another md5 are dropped ("type_changed").
-  void publish(const TopicInfo& topic, std::vector<std::uint8_t> message);
+  /// type; later ones of another md5 are dropped ("type_changed") and false is returned.
+  bool publish(const TopicInfo& topic, std::vector<std::uint8_t> message);
   /// Thread-safe snapshot; the last entry (peer "") counts connections refused before they said
   /// who they are, if any.
   std::vector<LinkReport> reports();
