@@ -70,13 +70,20 @@ class BackendNodelet final : public PipelineNodelet {
     loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize,
                              &BackendNodelet::onLoopClosure, this);
     worker_ = std::thread([this] { run(); });
+    createPeriodicTimer(settings_.core.optimize_period_s, [this] {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        due_ = true;
+      }
+      wake_.notify_one();
+    });
   }
 
   void queue(Input input, bool urgent) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       inputs_.push_back(std::move(input));
-      urgent_ = urgent_ || urgent;
+      due_ = due_ || urgent;
     }
     if (urgent) wake_.notify_one();
   }
@@ -137,21 +144,23 @@ class BackendNodelet final : public PipelineNodelet {
     queue(loop, true);
   }
 
-  // The worker: owns graph_, optimises when there is something new.
+  // The worker: owns graph_, optimises when there is something new, at the period's ticks
+  // (mission time when replaying) or at once for a loop closure.
   void run() {
-    const auto period = std::chrono::duration<double>(settings_.core.optimize_period_s);
     while (true) {
       std::deque<Input> inputs;
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait_for(lock, period, [this] { return stop_ || urgent_; });
+        wake_.wait(lock, [this] { return stop_ || due_; });
         if (stop_) return;
-        urgent_ = false;
+        due_ = false;
         inputs.swap(inputs_);
       }
       if (inputs.empty()) continue;
-      for (const Input& input : inputs) apply(input);
-      publish(graph_->optimize());
+      publish(measured("optimise", [&] {
+        for (const Input& input : inputs) apply(input);
+        return graph_->optimize();
+      }));
     }
   }
 
@@ -307,7 +316,7 @@ class BackendNodelet final : public PipelineNodelet {
   std::mutex mutex_;                  // guards what callbacks hand to the worker
   std::condition_variable wake_;
   std::deque<Input> inputs_;
-  bool urgent_ = false;
+  bool due_ = false;  // an optimisation is due: a period tick or a loop closure
   bool stop_ = false;
   std::thread worker_;
   std::mutex stats_mutex_;

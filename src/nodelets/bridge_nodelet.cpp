@@ -53,7 +53,8 @@ class BridgeNodelet final : public PipelineNodelet {
             } else {
               NODELET_INFO("%s", text.c_str());
             }
-          });
+          },
+          clock());
       bridge_->start();
     } catch (const std::exception& e) {
       bridge_.reset();
@@ -72,8 +73,7 @@ class BridgeNodelet final : public PipelineNodelet {
       subs_.push_back(nh.subscribe(options));
     }
     if (settings_.core.peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
-    stats_timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.stats_period_s),
-                                        &BridgeNodelet::onStatsTimer, this);
+    createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     flush_timer_ = nh.createSteadyTimer(ros::WallDuration(0.1), &BridgeNodelet::onFlushTimer, this);
   }
 
@@ -165,11 +165,18 @@ class BridgeNodelet final : public PipelineNodelet {
     }
   }
 
-  void onStatsTimer(const ros::SteadyTimerEvent&) {
-    const ros::WallTime now = ros::WallTime::now();
+  /// Replaying, the budgets hold per mission second, so that a replay at any speed sends what
+  /// the robots would have sent; live, the bridge keeps its monotonic wall clock.
+  static transport::Bridge::Clock clock() {
+    if (!ros::Time::isSimTime()) return {};
+    return [] { return ros::Time::now().toSec(); };
+  }
+
+  void publishStats() {
+    const ros::Time now = ros::Time::now();
     for (const auto& report : bridge_->reports()) {
       auto stats = boost::make_shared<LinkStats>();
-      stats->header.stamp = ros::Time::now();
+      stats->header.stamp = now;
       stats->robot = settings_.frames.robot_name;
       stats->peer = report.peer;
       stats->connected = report.connected;
@@ -179,7 +186,7 @@ class BridgeNodelet final : public PipelineNodelet {
       stats->messages_sent = report.sent.messages_sent;
       stats->messages_received = report.received.messages_received;
       auto& last = last_report_[report.peer];
-      if (!last.first.isZero()) {
+      if (!last.first.isZero() && now > last.first) {
         stats->send_rate_bytes_per_s = static_cast<double>(report.sent.bytes_sent - last.second) /
                                        std::max(1e-3, (now - last.first).toSec());
       }
@@ -192,7 +199,9 @@ class BridgeNodelet final : public PipelineNodelet {
         stats->drop_reasons.push_back(reason);
         stats->drop_counts.push_back(n);
       }
-      if (report.silent_s >= 0) stats->last_seen.fromSec(now.toSec() - report.silent_s);
+      if (report.silent_s >= 0 && now.toSec() >= report.silent_s) {
+        stats->last_seen = now - ros::Duration(report.silent_s);
+      }
       stats_pub_.publish(stats);
     }
   }
@@ -209,9 +218,8 @@ class BridgeNodelet final : public PipelineNodelet {
   ros_params::BridgeSettings settings_;
   ros::Publisher stats_pub_;
   std::vector<ros::Subscriber> subs_;
-  ros::SteadyTimer stats_timer_;
   ros::SteadyTimer flush_timer_;
-  std::map<std::string, std::pair<ros::WallTime, std::uint64_t>> last_report_;
+  std::map<std::string, std::pair<ros::Time, std::uint64_t>> last_report_;
   std::mutex inbox_mutex_;
   std::map<std::string, Inbox> inboxes_;
   // Last, so it is destroyed first: its thread calls onInbox.

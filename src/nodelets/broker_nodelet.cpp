@@ -72,8 +72,7 @@ class BrokerNodelet final : public PipelineNodelet {
           stats_.scan_bytes_received += ros::serialization::serializationLength(*scan);
         }));
 
-    stats_timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.stats_period_s),
-                                        &BrokerNodelet::onStatsTimer, this);
+    createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<BrokerConfig>>(
         reconfigure_mutex_, getPrivateNodeHandle());
     reconfigure_->setCallback([this](BrokerConfig& config, uint32_t) { onReconfigure(config); });
@@ -107,7 +106,7 @@ class BrokerNodelet final : public PipelineNodelet {
     features_pub_.publish(features);
   }
 
-  void onStatsTimer(const ros::SteadyTimerEvent&) {
+  void publishStats() {
     auto stats = boost::make_shared<BrokerStats>();
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -154,7 +153,6 @@ class BrokerNodelet final : public PipelineNodelet {
   std::unique_ptr<core::routing::FixedRateSelector> selector_;
   ros::Publisher stats_pub_, features_pub_, offers_pub_, requests_pub_, receipts_pub_, scans_pub_;
   std::vector<ros::Subscriber> subs_;
-  ros::SteadyTimer stats_timer_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<BrokerConfig>> reconfigure_;
 };

@@ -59,8 +59,8 @@ class MapperNodelet final : public PipelineNodelet {
     team_sub_ = nh.subscribe(topics::kTeamTransforms, topics::kMessageQueueSize,
                              &MapperNodelet::onTeamTransform, this);
     save_srv_ = getPrivateNodeHandle().advertiseService("save_map", &MapperNodelet::onSave, this);
-    timer_ = nh.createSteadyTimer(ros::WallDuration(settings_.core.publish_period_s),
-                                  &MapperNodelet::onTimer, this);
+    createPeriodicTimer(settings_.core.publish_period_s,
+                        [this] { measured("statistics", [this] { onTimer(); }); });
   }
 
   /// The keyframe's cloud (x y z) and odometry pose, or nullopt (warned, counted).
@@ -128,7 +128,8 @@ class MapperNodelet final : public PipelineNodelet {
   /// map, which was started from an older list.
   void insert(const std::vector<info::PlacedScan>& scans) {
     for (const auto& scan : scans) {
-      map_->write([&](info::OccupancyMap& map) { integrate(map, scan); });
+      measured("insert",
+               [&] { map_->write([&](info::OccupancyMap& map) { integrate(map, scan); }); });
       if (rebuilding_) placed_during_rebuild_.push_back(scan);
     }
   }
@@ -137,7 +138,7 @@ class MapperNodelet final : public PipelineNodelet {
     map.insert(map.computeUpdate(*scan.cloud, scan.map_from_sensor));
   }
 
-  void onTimer(const ros::SteadyTimerEvent&) {
+  void onTimer() {
     startRebuildIfDue();
     auto stats = boost::make_shared<MapStats>();
     stats->header.stamp = ros::Time::now();
@@ -183,7 +184,9 @@ class MapperNodelet final : public PipelineNodelet {
     rebuild_thread_ = std::thread([this, scans = keyframes_->placeAll()] {
       const auto start = std::chrono::steady_clock::now();
       auto fresh = std::make_unique<info::OccupancyMap>(settings_.core);
-      for (const auto& scan : scans) integrate(*fresh, scan);
+      measured("rebuild", [&] {
+        for (const auto& scan : scans) integrate(*fresh, scan);
+      });
       std::lock_guard lock(mutex_);
       for (const auto& scan : placed_during_rebuild_) integrate(*fresh, scan);
       placed_during_rebuild_.clear();
@@ -228,7 +231,6 @@ class MapperNodelet final : public PipelineNodelet {
   ros::Subscriber trajectory_sub_;
   ros::Subscriber team_sub_;
   ros::ServiceServer save_srv_;
-  ros::SteadyTimer timer_;
 };
 
 }  // namespace ccir_mapping

@@ -4,7 +4,6 @@
 // closures. The work is PlaceMatcher's; this converts messages and publishes.
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <memory>
 
 #include <ros/package.h>
@@ -73,14 +72,10 @@ class MatcherNodelet final : public PipelineNodelet {
     // Gravity up in the sensor frame (odometry frames are gravity-aligned).
     const Eigen::Vector3f up =
         (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
-    const auto start = std::chrono::steady_clock::now();
-    auto described =
-        matcher_->describe(keyframe.id, conversions::toStamp(keyframe.header.stamp), cloud, up);
-    describe_us_ +=
-        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
-                                       std::chrono::steady_clock::now() - start)
-                                       .count());
-    ++described_;
+    auto described = measured("describe", [&] {
+      return matcher_->describe(keyframe.id, conversions::toStamp(keyframe.header.stamp), cloud,
+                                up);
+    });
     described.odom_pose = *pose;
     return described;
   }
@@ -132,8 +127,10 @@ class MatcherNodelet final : public PipelineNodelet {
     features_pub_.publish(features);
     // Teammates' scans kept so far may show this place too (they came before this robot did).
     const std::string& self = settings_.frames.robot_name;
-    publishBest(matcher_->matchKeptScans(*described), self, keyframe->id, keyframe->header.stamp);
-    const auto candidates = matcher_->addOwn(std::move(*described));
+    publishBest(measured("match", [&] { return matcher_->matchKeptScans(*described); }), self,
+                keyframe->id, keyframe->header.stamp);
+    const auto candidates =
+        measured("match", [&] { return matcher_->addOwn(std::move(*described)); });
     places_ = matcher_->places();
     publishBest(candidates, self, keyframe->id, keyframe->header.stamp);
   }
@@ -191,7 +188,8 @@ class MatcherNodelet final : public PipelineNodelet {
     if (!fromTeammate(scan->robot, "scans")) return;
     auto described = describe(*scan, "teammate");
     if (!described) return;
-    publishBest(matcher_->matchTeammate(*described), scan->robot, scan->id, scan->header.stamp);
+    publishBest(measured("match", [&] { return matcher_->matchTeammate(*described); }), scan->robot,
+                scan->id, scan->header.stamp);
     matcher_->keepTeammateScan(scan->robot, std::move(*described));
     kept_ = matcher_->keptScans();
   }
@@ -200,9 +198,6 @@ class MatcherNodelet final : public PipelineNodelet {
     status.add("places", places_.load());
     status.add("teammate scans kept", kept_.load());
     status.add("candidates verified", verified_.load());
-    if (const std::size_t n = described_.load()) {
-      status.add("ms to describe a keyframe (mean)", 1e-3 * describe_us_.load() / n);
-    }
   }
 
   ros_params::MatcherSettings settings_;
@@ -211,9 +206,7 @@ class MatcherNodelet final : public PipelineNodelet {
   // For diagnostics, which run on another thread.
   std::atomic<std::size_t> places_{0};
   std::atomic<std::size_t> kept_{0};
-  std::atomic<std::size_t> described_{0};
   std::atomic<std::size_t> verified_{0};
-  std::atomic<std::uint64_t> describe_us_{0};
   ros::Publisher features_pub_;
   ros::Publisher correspondences_pub_;
   ros::Publisher loop_pub_;

@@ -54,6 +54,13 @@ void PipelineNodelet::count(const std::string& flow, std::uint64_t bytes) {
   f.bytes += bytes;
 }
 
+void PipelineNodelet::addCpu(const std::string& stage, double seconds) {
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  Cpu& c = cpu_[stage];
+  ++c.runs;
+  c.seconds += seconds;
+}
+
 void PipelineNodelet::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   {
     std::lock_guard<std::mutex> lock(status_mutex_);
@@ -68,6 +75,10 @@ void PipelineNodelet::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
     for (const auto& [name, flow] : flows_) {
       status.add(name + " messages", flow.messages);
       if (flow.bytes) status.add(name + " bytes", flow.bytes);
+    }
+    for (const auto& [stage, cpu] : cpu_) {
+      status.addf("cpu s " + stage, "%.3f", cpu.seconds);
+      status.add("cpu runs " + stage, cpu.runs);
     }
   }
   addDiagnostics(status);

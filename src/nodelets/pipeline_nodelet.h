@@ -14,6 +14,7 @@
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 
+#include "ccir_mapping/core/common/cpu_time.h"
 #include "ccir_mapping/ros/param_reader.h"
 
 namespace ccir_mapping {
@@ -45,6 +46,35 @@ class PipelineNodelet : public nodelet::Nodelet {
 
   /// Counts messages (and bytes) that passed through a named input or output.
   void count(const std::string& flow, std::uint64_t bytes = 0);
+  /// Adds CPU seconds spent in a named stage; diagnostics show each stage's total ("cpu s
+  /// <stage>") and runs, the figures the CPU budget is measured with (bench_pipeline).
+  void addCpu(const std::string& stage, double seconds);
+  /// Runs `work` and adds the calling thread's CPU time to `stage`.
+  template <class F>
+  auto measured(const std::string& stage, F&& work) {
+    struct Meter {
+      PipelineNodelet& self;
+      const std::string& stage;
+      double start = core::threadCpuSeconds();
+      ~Meter() { self.addCpu(stage, core::threadCpuSeconds() - start); }
+    } meter{*this, stage};
+    return work();
+  }
+
+  /// A periodic timer on the clock rates should follow: mission time while replaying
+  /// (/use_sim_time), so a replay at any speed does the same work per mission second, and the
+  /// monotonic wall clock live (ros::Time follows the system clock, which may jump).
+  template <class Callback>
+  void createPeriodicTimer(double period_s, Callback callback) {
+    ros::NodeHandle& nh = getNodeHandle();
+    if (ros::Time::isSimTime()) {
+      mission_timers_.push_back(nh.createTimer(ros::Duration(period_s),
+                                               [callback](const ros::TimerEvent&) { callback(); }));
+    } else {
+      steady_timers_.push_back(nh.createSteadyTimer(
+          ros::WallDuration(period_s), [callback](const ros::SteadyTimerEvent&) { callback(); }));
+    }
+  }
   /// Adds a status line to the diagnostics (called from the diagnostics thread).
   virtual void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& /*status*/) {}
 
@@ -57,8 +87,15 @@ class PipelineNodelet : public nodelet::Nodelet {
     std::uint64_t messages = 0;
     std::uint64_t bytes = 0;
   };
+  struct Cpu {
+    std::uint64_t runs = 0;
+    double seconds = 0.0;
+  };
   std::mutex status_mutex_;
   std::map<std::string, Flow> flows_;
+  std::map<std::string, Cpu> cpu_;
+  std::vector<ros::Timer> mission_timers_;
+  std::vector<ros::SteadyTimer> steady_timers_;
   std::vector<std::string> config_errors_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::SteadyTimer diagnostics_timer_;

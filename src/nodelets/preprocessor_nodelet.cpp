@@ -1,6 +1,7 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Thin: checks input, places each scan
 // with odometry, lets the core decide keyframes and filter them, publishes them zero-copy.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <mutex>
 #include <sstream>
@@ -19,6 +20,7 @@
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
+#include "ccir_mapping/core/preprocess/scan_gap_counter.h"
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
@@ -149,6 +151,10 @@ class PreprocessorNodelet final : public PipelineNodelet {
   }
 
   void onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+    measured("scans", [&] { takeCloud(msg); });
+  }
+
+  void takeCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
     count("in velodyne_points", msg->data.size());
     conversions::CloudFields fields;
     if (const auto error = conversions::checkCloud(*msg, &fields)) {
@@ -174,6 +180,15 @@ class PreprocessorNodelet final : public PipelineNodelet {
       return;
     }
     last_queued_stamp_ = msg->header.stamp;
+    if (const std::uint64_t missing = gaps_.add(conversions::toStamp(msg->header.stamp))) {
+      NODELET_WARN_THROTTLE(5.0,
+                            "%lu scan(s) missing before %.3f (%lu so far): the sensor queue "
+                            "overflowed while the pipeline was busy, or the driver or bag lost "
+                            "them; replay slower (rosbag play -r) if this machine cannot keep up",
+                            static_cast<unsigned long>(missing), msg->header.stamp.toSec(),
+                            static_cast<unsigned long>(gaps_.missed()));
+      missed_scans_ = gaps_.missed();
+    }
     if (const auto pushed_out = pending_.push(msg)) {
       dropUnplaceable(**pushed_out, "waited too long");
     }
@@ -327,6 +342,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
+    status.add("missed scans (gaps in stamps)", missed_scans_.load());
     std::lock_guard<std::mutex> lock(stats_mutex_);
     status.add("keyframe points in (last)", last_points_in_);
     status.add("keyframe points out (last)", last_points_out_);
@@ -342,6 +358,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
   // Scans waiting for odometry or tf, in stamp order.
   core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> pending_{kMaxPendingScans};
   std::optional<ros::Time> last_queued_stamp_;
+  core::preprocess::ScanGapCounter gaps_;
+  std::atomic<std::uint64_t> missed_scans_{0};  // for diagnostics
   std::unique_ptr<KeyframeSelector> selector_;
   std::unique_ptr<ScanPreprocessor> preprocessor_;
   ScanPreprocessor::InputCloud scan_;  // conversion buffer, reused scan after scan

@@ -2,7 +2,8 @@
 // records what the sender put on the wire and cuts the connection once. Reliable messages arrive
 // exactly once and in order across the cut, the sender stays within its budget in every 1 s
 // window while scans saturate it, control messages overtake the scans, and a stranger's
-// connection is refused and counted without disturbing the link.
+// connection is refused and counted without disturbing the link; on a mission clock, the
+// budget holds per mission second.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -231,6 +232,51 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   EXPECT_FALSE(a.publish(retyped, numbered(100, 1))) << "a topic keeps the type it started with";
   EXPECT_EQ(a.reports()[0].drops.at("type_changed"), 1U);
   EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 10.0));
+}
+
+// Replaying at half speed, the budget holds per mission second: 300 KB take at least as many
+// mission seconds as the budget allows (twice as many wall seconds), and the mission clock's
+// jump when the replay starts neither closes the link as silent nor lets a burst through.
+TEST(BridgeNetwork, FollowsTheMissionClockAtHalfSpeed) {
+  const auto wall_start = Clock::now();
+  const auto mission_s = [wall_start] {
+    const double wall = std::chrono::duration<double>(Clock::now() - wall_start).count();
+    return (wall < 0.5 ? 0.0 : 1000.0) + 0.5 * wall;  // the replay starts 1000 s in
+  };
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
+  Inbox at_b;
+  std::vector<std::string> warnings;
+  std::mutex warnings_mutex;
+  const auto log = [&](bool warning, const std::string& text) {
+    std::lock_guard<std::mutex> lock(warnings_mutex);
+    if (warning) warnings.push_back(text);
+  };
+  BridgeParams pa = params(port_a, "robot_b", port_b);
+  pa.peer_timeout_s = 2.0;  // far less than the jump
+  BridgeParams pb = params(port_b, "robot_a", port_a);
+  pb.peer_timeout_s = 2.0;
+  Bridge a(
+      pa, "robot_a", [](auto&&...) {}, log, mission_s);
+  Bridge b(
+      pb, "robot_b", [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+      log, mission_s);
+  a.start();
+  b.start();
+  const TopicInfo scans = topic("inbox/scans", Priority::kBulk);
+  ASSERT_TRUE(a.publish(scans, numbered(1000, 0)));
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/scans", 1, 20.0)) << "the link came up";
+  std::this_thread::sleep_until(wall_start + std::chrono::milliseconds(700));  // past the jump
+  const double sent_at_s = mission_s();
+  constexpr int kScans = 20;
+  for (std::uint32_t n = 1; n <= kScans; ++n) a.publish(scans, numbered(15000, n));
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/scans", kScans + 1, 60.0));
+  const double took_s = mission_s() - sent_at_s;
+  const double budget = pa.budget_bytes_per_s;
+  // Payload only (the wire carries more): at least (bytes - burst) / rate mission seconds.
+  EXPECT_GE(took_s, (kScans * 15000.0 - pa.burst_bytes) / budget) << "mission seconds";
+  std::lock_guard<std::mutex> lock(warnings_mutex);
+  for (const auto& w : warnings) ADD_FAILURE() << w;
 }
 
 TEST(BridgeNetwork, APortInUseIsAnErrorNamingTheParameter) {

@@ -26,6 +26,11 @@ constexpr std::size_t kMaxUnidentified = 16;
 constexpr double kIdentifyTimeoutS = 5.0;
 constexpr std::size_t kHelloMaxBytes = 1024;
 constexpr std::size_t kReadChunkBytes = 65536;
+// With a clock of unknown speed (mission time), the sender and the keep-alives look at it this
+// often (wall seconds).
+constexpr double kClockPollS = 0.01;
+// ... and take a larger step of it as a jump (a replay starting or skipping), not as time.
+constexpr double kMaxClockStepS = 1.0;
 
 std::string endpointText(const tcp::socket& socket) {
   boost::system::error_code ec;
@@ -61,6 +66,10 @@ struct Bridge::Impl {
   InboxHandler on_message;
   LogHandler on_log;
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  Clock clock;                   // empty: steady time since start
+  mutable double last_s = 0;     // the bridge's time: never back, at most kMaxClockStepS a look
+  mutable double clock_s = NAN;  // the clock's reading at the last look
+  double next_keepalive_s = 0;
 
   asio::io_context io;
   asio::executor_work_guard<asio::io_context::executor_type> work{io.get_executor()};
@@ -78,7 +87,15 @@ struct Bridge::Impl {
   std::size_t unidentified = 0;
 
   double now() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!clock) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    // Mission time jumps when a replay starts or skips: the bridge's time does not, so a link
+    // is not found silent and no budget accrues across the jump.
+    const double reading = clock();
+    if (std::isfinite(clock_s)) last_s += std::clamp(reading - clock_s, 0.0, kMaxClockStepS);
+    clock_s = reading;
+    return last_s;
   }
   static asio::steady_timer::duration after(double s) {
     return std::chrono::duration_cast<asio::steady_timer::duration>(
@@ -285,6 +302,7 @@ struct Bridge::Impl {
         write(link, std::make_shared<std::vector<std::uint8_t>>(std::move(out[i])));
       if (link.socket && !link.writing) wait = std::min(wait, link.session.outputDelay(t));
     }
+    if (clock && wait > 0) wait = kClockPollS;
     if (std::isfinite(wait)) {
       pump_timer.expires_after(after(wait));
       pump_timer.async_wait([this](const boost::system::error_code& ec) {
@@ -310,11 +328,14 @@ struct Bridge::Impl {
   }
 
   void keepAlive() {
-    keepalive_timer.expires_after(after(params.peer_timeout_s / 3.0));
-    keepalive_timer.async_wait([this](const boost::system::error_code& ec) {
+    const double period_s = params.peer_timeout_s / 3.0;
+    keepalive_timer.expires_after(after(clock ? kClockPollS : period_s));
+    keepalive_timer.async_wait([this, period_s](const boost::system::error_code& ec) {
       if (ec) return;
       std::lock_guard<std::mutex> lock(mutex);
       const double t = now();
+      if (clock && t < next_keepalive_s) return keepAlive();
+      next_keepalive_s = t + period_s;
       for (auto& link : links) {
         if (!link->socket) continue;
         const double heard =
@@ -332,7 +353,7 @@ struct Bridge::Impl {
 };
 
 Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-               LogHandler on_log)
+               LogHandler on_log, Clock clock)
     : impl_(std::make_unique<Impl>()) {
   const auto errors = params.validate(own_robot);
   if (!errors.empty()) throw std::invalid_argument("Bridge: " + errors.front());
@@ -341,6 +362,8 @@ Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHa
   m.own = own_robot;
   m.on_message = std::move(on_message);
   m.on_log = std::move(on_log);
+  m.clock = std::move(clock);
+  const double t = m.now();
   SessionParams session;
   session.budget_bytes_per_s = params.budget_bytes_per_s;
   session.burst_bytes = static_cast<std::size_t>(params.burst_bytes);
@@ -348,11 +371,11 @@ Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHa
   session.max_message_bytes = static_cast<std::size_t>(params.max_message_bytes);
   session.incarnation = drawIncarnation();
   const auto total = std::make_shared<TokenBucket>(params.total_budget_bytes_per_s,
-                                                   static_cast<double>(params.burst_bytes), 0.0);
+                                                   static_cast<double>(params.burst_bytes), t);
   for (const PeerConfig& peer : params.peers) {
     auto link = std::unique_ptr<Impl::Link>(
         new Impl::Link{peer, params.listen_port == 0 || own_robot < peer.name,
-                       PeerSession(own_robot, peer.name, params.team_key, session, 0.0)});
+                       PeerSession(own_robot, peer.name, params.team_key, session, t)});
     link->session.shareBucket(total);
     link->dial_timer = std::make_unique<asio::steady_timer>(m.io);
     m.links.push_back(std::move(link));

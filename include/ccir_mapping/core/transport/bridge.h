@@ -40,10 +40,15 @@ class Bridge {
   /// A link came up (false) or something went wrong (true): closed, refused, unresolvable.
   using LogHandler = std::function<void(bool warning, const std::string& text)>;
 
+  /// Seconds on the clock budgets, keep-alives, silence and queue ages follow.
+  using Clock = std::function<double()>;
+
   /// Throws std::invalid_argument when params.validate(own_robot) reports errors.
-  /// `on_message` and `on_log` run on the bridge's thread.
+  /// `on_message` and `on_log` run on the bridge's thread. Without a `clock` the bridge runs on
+  /// the monotonic wall clock; with one (mission time while replaying) it follows that clock,
+  /// never backwards, and looks at it every few milliseconds since it cannot know its speed.
   Bridge(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-         LogHandler on_log);
+         LogHandler on_log, Clock clock = {});
   ~Bridge();
   Bridge(const Bridge&) = delete;
   Bridge& operator=(const Bridge&) = delete;
