@@ -135,7 +135,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   static void integrate(info::OccupancyMap& map, const info::PlacedScan& scan) {
-    map.insert(map.computeUpdate(*scan.cloud, scan.map_from_sensor));
+    map.insert(*scan.cloud, scan.map_from_sensor);
   }
 
   void onTimer() {
@@ -145,14 +145,13 @@ class MapperNodelet final : public PipelineNodelet {
     stats->header.frame_id = settings_.frames.map_frame;
     stats->robot = settings_.frames.robot_name;
     stats->resolution_m = settings_.core.resolution_m;
-    const info::Box box{settings_.core.entropyBoxMin(), settings_.core.entropyBoxMax()};
     map_->read([&](const info::OccupancyMap& map) {
-      stats->entropy_bits = map.entropyBits(box);
-      stats->known_volume_m3 = map.knownVolumeM3(box);
+      stats->entropy_bits = map.boxEntropyBits();
+      stats->known_volume_m3 = map.boxKnownVolumeM3();
       return 0;
     });
-    stats->box_min = tf2::toMsg(box.min);
-    stats->box_max = tf2::toMsg(box.max);
+    stats->box_min = tf2::toMsg(settings_.core.entropyBoxMin());
+    stats->box_max = tf2::toMsg(settings_.core.entropyBoxMax());
     {
       std::lock_guard lock(mutex_);
       stats->keyframes = static_cast<std::uint32_t>(keyframes_->ownKeyframes());
@@ -199,7 +198,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   bool save() {
-    const bool ok = map_->read([&](const info::OccupancyMap& map) { return map.save(map_path_); });
+    const bool ok = map_->write([&](info::OccupancyMap& map) { return map.save(map_path_); });
     if (ok) {
       NODELET_INFO("map saved to %s", map_path_.c_str());
     } else {

@@ -194,6 +194,20 @@ TEST(OccupancyMap, InsertingAScanLowersEntropyByItsPerVoxelDrops) {
   map.insert(second);
   EXPECT_NEAR(before - map.entropyBits(box), second_predicted,
               1e-6 * std::abs(second_predicted) + 1e-6);
+  // The entropy box's statistics follow every insertion (the default box holds the room).
+  const Box params_box{map.params().entropyBoxMin(), map.params().entropyBoxMax()};
+  EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(params_box), 1e-9 * map.boxEntropyBits());
+  EXPECT_NEAR(map.boxKnownVolumeM3(), map.knownVolumeM3(params_box), 1e-9);
+  EXPECT_GT(map.boxKnownVolumeM3(), 0.0);
+  // A scan inserted from its sensor frame changes the same voxels as its computed update.
+  OccupancyMap direct(params());
+  OccupancyMap via_update(params());
+  direct.insert(in_sensor, sensor);
+  via_update.insert(via_update.computeUpdate(in_sensor, sensor));
+  EXPECT_EQ(direct.occupiedCentres().size(), via_update.occupiedCentres().size());
+  EXPECT_DOUBLE_EQ(direct.boxEntropyBits(), via_update.boxEntropyBits());
+  EXPECT_DOUBLE_EQ(direct.boxKnownVolumeM3(), via_update.boxKnownVolumeM3());
+  EXPECT_NEAR(direct.entropyBits(params_box), via_update.entropyBits(params_box), 1e-6);
   // Pruning merges equal voxels, it does not change the entropy.
   const double unpruned = map.entropyBits(box);
   const_cast<octomap::OcTree&>(map.tree()).prune();

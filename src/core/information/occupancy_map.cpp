@@ -28,26 +28,57 @@ OccupancyMap::OccupancyMap(const MapperParams& params)
     : params_(validated(params)), tree_(params.resolution_m) {
   tree_.setClampingThresMin(params_.occupancy_clamp_min);
   tree_.setClampingThresMax(params_.occupancy_clamp_max);
+  // validate() checked that the box lies within OctoMap's reach.
+  tree_.coordToKeyChecked(toOctomap(params_.entropyBoxMin()), box_min_key_);
+  tree_.coordToKeyChecked(toOctomap(params_.entropyBoxMax()), box_max_key_);
+  box_entropy_bits_ = 1.0;
+  for (int a = 0; a < 3; ++a) box_entropy_bits_ *= box_max_key_[a] - box_min_key_[a] + 1;
 }
 
-ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
-                                       const Eigen::Vector3d& origin) const {
+double OccupancyMap::boxKnownVolumeM3() const {
+  return box_known_voxels_ * std::pow(params_.resolution_m, 3);
+}
+
+void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
+  bool in_box = true;
+  for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
+  if (!in_box) {
+    tree_.updateNode(key, hit, /*lazy_eval=*/true);
+    return;
+  }
+  const octomap::OcTreeNode* before = tree_.search(key);
+  const double h_before = before ? occupancyEntropyBits(before->getOccupancy()) : 1.0;
+  box_known_voxels_ += before ? 0.0 : 1.0;
+  const octomap::OcTreeNode* after = tree_.updateNode(key, hit, /*lazy_eval=*/true);
+  box_entropy_bits_ += occupancyEntropyBits(after->getOccupancy()) - h_before;
+}
+
+int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,
+                          const Eigen::Vector3d& origin, octomap::KeySet& free_cells,
+                          octomap::KeySet& occupied_cells) const {
   if (!origin.allFinite()) throw std::invalid_argument("computeUpdate: non-finite sensor origin");
-  ScanUpdate update;
+  int dropped = 0;
   octomap::Pointcloud cloud;
   cloud.reserve(points.size());
   for (const auto& p : points) {
     if (p.getVector3fMap().allFinite()) {
       cloud.push_back(p.x, p.y, p.z);
     } else {
-      ++update.dropped_points;
+      ++dropped;
     }
   }
-  octomap::KeySet free_cells;
-  octomap::KeySet occupied_cells;
   // const_cast: computeUpdate only reads the tree but is not declared const.
   const_cast<octomap::OcTree&>(tree_).computeUpdate(cloud, toOctomap(origin), free_cells,
                                                     occupied_cells, params_.max_insert_range_m);
+  return dropped;
+}
+
+ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
+                                       const Eigen::Vector3d& origin) const {
+  ScanUpdate update;
+  octomap::KeySet free_cells;
+  octomap::KeySet occupied_cells;
+  update.dropped_points = collect(points, origin, free_cells, occupied_cells);
   update.free.assign(free_cells.begin(), free_cells.end());
   update.occupied.assign(occupied_cells.begin(), occupied_cells.end());
   // KeySet order depends on hashing: sort, so results do not depend on the standard library.
@@ -78,10 +109,23 @@ pcl::PointCloud<pcl::PointXYZ> OccupancyMap::occupiedCentres() const {
   return centres;
 }
 
-void OccupancyMap::insert(const ScanUpdate& update) {
-  for (const auto& key : update.free) tree_.updateNode(key, false, true);
-  for (const auto& key : update.occupied) tree_.updateNode(key, true, true);
-  tree_.updateInnerOccupancy();
+void OccupancyMap::insert(const ScanUpdate& scan) {
+  for (const auto& key : scan.free) update(key, false);
+  for (const auto& key : scan.occupied) update(key, true);
+}
+
+void OccupancyMap::insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                          const Pose3& map_from_sensor) {
+  if (!map_from_sensor.matrix().allFinite()) {
+    throw std::invalid_argument("insert: non-finite sensor pose");
+  }
+  pcl::PointCloud<pcl::PointXYZ> map_points;
+  pcl::transformPointCloud(sensor_points, map_points, map_from_sensor.matrix().cast<float>());
+  octomap::KeySet free_cells;
+  octomap::KeySet occupied_cells;
+  collect(map_points, map_from_sensor.translation(), free_cells, occupied_cells);
+  for (const auto& key : free_cells) update(key, false);
+  for (const auto& key : occupied_cells) update(key, true);
 }
 
 float OccupancyMap::updatedLogOdds(float log_odds, bool hit) const {
@@ -240,6 +284,9 @@ double OccupancyMap::simulatedCsqmi(const Pose3& sensor_pose) const {
   return beamsCsqmi(sensor_pose.translation(), directions);
 }
 
-bool OccupancyMap::save(const std::string& path) const { return tree_.writeBinaryConst(path); }
+bool OccupancyMap::save(const std::string& path) {
+  tree_.updateInnerOccupancy();
+  return tree_.writeBinaryConst(path);
+}
 
 }  // namespace ccir_mapping::core::information

@@ -7,7 +7,6 @@
 #include <stdexcept>
 
 #include <pcl/common/transforms.h>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/range_image/range_image.h>
 #include <pcl/registration/gicp.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -31,6 +30,50 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr prepared(const pcl::PointCloud<pcl::PointXYZ
   }
   return preprocess::voxelDownsample(cropped, voxel_m);
 }
+
+/// PCL's registration model that fits only rigid samples: three correspondences whose pairwise
+/// distances differ between the scans by more than twice the inlier distance cannot all be
+/// inliers of one rigid transform, so their fit fails at once and RANSAC skips them (up to ten
+/// times its iterations) without counting inliers - the pre-rejection of PCL's
+/// SampleConsensusPrerejective, which does its own correspondence search and so cannot take
+/// ours. A true triple always passes: an iteration is spent only on a plausible draw.
+class RigidSampleModel : public pcl::SampleConsensusModelRegistration<pcl::PointXYZ> {
+ public:
+  RigidSampleModel(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& source,
+                   const pcl::Indices& indices, double inlier_m)
+      : pcl::SampleConsensusModelRegistration<pcl::PointXYZ>(source, indices),
+        tolerance_(static_cast<float>(2.0 * inlier_m)) {}
+
+  bool computeModelCoefficients(const pcl::Indices& samples,
+                                Eigen::VectorXf& coefficients) const override {
+    for (std::size_t a = 0; a < samples.size(); ++a) {
+      for (std::size_t b = a + 1; b < samples.size(); ++b) {
+        const float in_source =
+            ((*input_)[samples[a]].getVector3fMap() - (*input_)[samples[b]].getVector3fMap())
+                .norm();
+        const float in_target = ((*target_)[correspondences_.at(samples[a])].getVector3fMap() -
+                                 (*target_)[correspondences_.at(samples[b])].getVector3fMap())
+                                    .norm();
+        if (std::abs(in_source - in_target) > tolerance_) return false;
+      }
+    }
+    return pcl::SampleConsensusModelRegistration<pcl::PointXYZ>::computeModelCoefficients(
+        samples, coefficients);
+  }
+
+ private:
+  float tolerance_;
+};
+
+/// PCL's GICP, with its per-point covariances computable ahead: a place's are computed once,
+/// not for every candidate it is verified against.
+class Gicp : public pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> {
+ public:
+  void covariancesOf(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+                     const PreparedScan::Tree::Ptr& tree, PreparedScan::Covariances& covariances) {
+    computeCovariances<pcl::PointXYZ>(cloud, tree, covariances);
+  }
+};
 
 }  // namespace
 
@@ -78,14 +121,12 @@ double ScanVerifier::freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to
   return seen ? static_cast<double>(violating) / seen : 0.0;
 }
 
-double ScanVerifier::wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
-                                 const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
+double ScanVerifier::wallOverlap(const PreparedScan& to, const PreparedScan& from,
                                  const Eigen::Matrix4f& from_to) const {
-  if (from_walls->empty()) return 0.0;
+  if (from.walls->empty()) return 0.0;
   pcl::PointCloud<pcl::PointXYZ> moved;
-  pcl::transformPointCloud(to_walls, moved, from_to);
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud(from_walls);
+  pcl::transformPointCloud(*to.walls, moved, from_to);
+  const PreparedScan::Tree& tree = *from.walls_tree;
   const auto range2 = static_cast<float>(params_.overlap_range_m * params_.overlap_range_m);
   const auto distance2 =
       static_cast<float>(params_.overlap_distance_m * params_.overlap_distance_m);
@@ -130,8 +171,19 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
   for (const auto& p : cloud) {
     if (std::abs(p.normal_z) < params_.wall_normal_z) walls.push_back(p);
   }
-  return {prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m),
-          prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m), std::move(features)};
+  PreparedScan scan;
+  scan.cloud = prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m);
+  scan.cloud_tree = pcl::make_shared<PreparedScan::Tree>();
+  scan.cloud_tree->setInputCloud(scan.cloud);
+  scan.covariances = std::make_shared<PreparedScan::Covariances>();
+  if (!scan.cloud->empty()) {
+    Gicp().covariancesOf(scan.cloud, scan.cloud_tree, *scan.covariances);
+  }
+  scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
+  scan.walls_tree = pcl::make_shared<PreparedScan::Tree>();
+  if (!scan.walls->empty()) scan.walls_tree->setInputCloud(scan.walls);
+  scan.features = std::move(features);
+  return scan;
 }
 
 Verification ScanVerifier::verify(const PreparedScan& from_scan,
@@ -160,8 +212,7 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   }
   pcl::Indices pairs(matches.size());
   std::iota(pairs.begin(), pairs.end(), 0);
-  auto model =
-      pcl::make_shared<pcl::SampleConsensusModelRegistration<pcl::PointXYZ>>(source, pairs);
+  auto model = pcl::make_shared<RigidSampleModel>(source, pairs, params_.ransac_inlier_m);
   model->setInputTarget(target, pairs);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, params_.ransac_inlier_m);
   ransac.setMaxIterations(params_.ransac_iterations);
@@ -184,9 +235,13 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   const Eigen::Matrix4f initial =
       Eigen::Map<const Eigen::Matrix<float, 4, 4, Eigen::RowMajor>>(coefficients.data());
 
-  pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
+  Gicp gicp;
   gicp.setInputSource(to_scan.cloud);
+  gicp.setSourceCovariances(to_scan.covariances);
+  gicp.setSearchMethodSource(to_scan.cloud_tree, /*force_no_recompute=*/true);
   gicp.setInputTarget(from_scan.cloud);
+  gicp.setTargetCovariances(from_scan.covariances);
+  gicp.setSearchMethodTarget(from_scan.cloud_tree, /*force_no_recompute=*/true);
   gicp.setMaxCorrespondenceDistance(params_.gicp_max_correspondence_m);
   gicp.setMaximumIterations(params_.gicp_iterations);
   pcl::PointCloud<pcl::PointXYZ> aligned;
@@ -198,8 +253,8 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   v.fitness_m2 = gicp.getFitnessScore(1.0);
   // Both ways: a scan that sees the mine's outer wall where the other sees a drift fails one.
   const Eigen::Matrix4f from_to = gicp.getFinalTransformation();
-  v.overlap = std::min(wallOverlap(*to_scan.walls, from_scan.walls, from_to),
-                       wallOverlap(*from_scan.walls, to_scan.walls, from_to.inverse()));
+  v.overlap = std::min(wallOverlap(to_scan, from_scan, from_to),
+                       wallOverlap(from_scan, to_scan, from_to.inverse()));
   v.free_space_violation =
       std::max(freeSpaceViolation(*to_scan.walls, *from_scan.cloud, from_to),
                freeSpaceViolation(*from_scan.walls, *to_scan.cloud, from_to.inverse()));

@@ -49,8 +49,13 @@ class OccupancyMap {
   /// The same for a scan in its sensor frame with the sensor's pose in the map frame.
   ScanUpdate computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
                            const Pose3& map_from_sensor) const;
-  /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped.
+  /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped. Inner
+  /// nodes are left stale (nothing here reads them; save() brings them up to date), which
+  /// spares a walk over the whole tree per scan.
   void insert(const ScanUpdate& update);
+  /// Inserts a scan in its sensor frame at the sensor's pose: the same voxels as
+  /// insert(computeUpdate(...)), without ordering them (the result does not depend on order).
+  void insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor);
 
   /// Entropy, in bits, inserting `update` would remove (sum over its voxels of h(before) -
   /// h(after)); may be negative where a scan contradicts the map. The map is not changed.
@@ -58,10 +63,14 @@ class OccupancyMap {
   /// The voxels whose entropy the update lowers, with the drop.
   std::vector<VoxelGain> voxelGains(const ScanUpdate& update) const;
 
-  /// Sum of voxel entropies in the box, in bits; an unknown voxel has 1 bit.
+  /// Sum of voxel entropies in the box, in bits; an unknown voxel has 1 bit. Walks the box.
   double entropyBits(const Box& box) const;
-  /// Volume of the box's known voxels, m^3.
+  /// Volume of the box's known voxels, m^3. Walks the box.
   double knownVolumeM3(const Box& box) const;
+  /// The same two for the entropy box of the parameters, kept up to date by every insertion
+  /// (what MapStats reports every publish_period_s, at no cost).
+  double boxEntropyBits() const { return box_entropy_bits_; }
+  double boxKnownVolumeM3() const;
 
   /// CSQMI (nats) of beams from `origin` along each of `directions` (map frame, any length) up
   /// to max_insert_range_m, summed: what a measurement there could tell about the map.
@@ -85,7 +94,7 @@ class OccupancyMap {
   const octomap::OcTree& tree() const { return tree_; }
   const MapperParams& params() const { return params_; }
   /// Writes the map as a binary OctoMap (.bt); false if the file cannot be written.
-  bool save(const std::string& path) const;
+  bool save(const std::string& path);
 
  private:
   /// Log-odds of the voxel after one hit or miss, as OccupancyOcTreeBase::updateNode does it.
@@ -93,8 +102,18 @@ class OccupancyMap {
   /// h(before) - h(after) of one voxel for one hit or miss.
   double entropyDrop(const octomap::OcTreeKey& key, bool hit) const;
 
+  /// The voxels `points` (map frame) seen from `origin` update; returns the non-finite points.
+  int collect(const pcl::PointCloud<pcl::PointXYZ>& points, const Eigen::Vector3d& origin,
+              octomap::KeySet& free_cells, octomap::KeySet& occupied_cells) const;
+  /// One voxel's hit or miss, with the entropy box's statistics following it.
+  void update(const octomap::OcTreeKey& key, bool hit);
+
   MapperParams params_;
   octomap::OcTree tree_;
+  octomap::OcTreeKey box_min_key_;
+  octomap::OcTreeKey box_max_key_;
+  double box_entropy_bits_ = 0.0;
+  double box_known_voxels_ = 0.0;
 };
 
 /// Binary entropy, in bits, of an occupancy probability.

@@ -2,11 +2,13 @@
 // correspondences for an initial transform, GICP to refine it, acceptance on inliers and fitness.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
 
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/features/local_features.h"
@@ -19,7 +21,7 @@ struct VerificationParams {
   int match_neighbors = 3;
   /// RANSAC (PCL's registration sample-consensus model): inlier distance and iterations.
   double ransac_inlier_m = 0.5;
-  int ransac_iterations = 5000;
+  int ransac_iterations = 1000;
   /// Distinct keypoints of the candidate scan among the RANSAC inliers.
   int min_inliers = 8;
   /// GICP on the two clouds, down-sampled to this voxel and cropped to this range.
@@ -69,12 +71,20 @@ struct Verification {
 };
 
 /// What verification needs of a keyframe, kept for every mapped place: the features and the
-/// cloud GICP aligns (cropped, down-sampled, points only: ~15x smaller than the keyframe).
+/// cloud GICP aligns (cropped, down-sampled, points only: ~15x smaller than the keyframe), with
+/// what GICP and the overlap test would otherwise rebuild for every candidate pair: the
+/// clouds' search trees and GICP's per-point covariances (~70 bytes a point).
 struct PreparedScan {
+  using Covariances = std::vector<Eigen::Matrix3d, Eigen::aligned_allocator<Eigen::Matrix3d>>;
+  using Tree = pcl::search::KdTree<pcl::PointXYZ>;
+
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr cloud;
+  Tree::Ptr cloud_tree;
+  std::shared_ptr<Covariances> covariances;
   /// Points on non-horizontal surfaces (walls, pillars, rubble), for the overlap test: floor
   /// and ceiling overlap wherever two scans are aligned, so they would hide a wrong alignment.
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr walls;
+  Tree::Ptr walls_tree;
   features::LocalFeatures features;
 };
 
@@ -95,10 +105,9 @@ class ScanVerifier {
   }
 
  private:
-  /// Share of `to_walls`, moved by `from_to`, within overlap_range_m of the origin that lie
-  /// within overlap_distance_m of `from_walls`.
-  double wallOverlap(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
-                     const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& from_walls,
+  /// Share of `to`'s walls, moved by `from_to`, within overlap_range_m of the origin that lie
+  /// within overlap_distance_m of `from`'s walls.
+  double wallOverlap(const PreparedScan& to, const PreparedScan& from,
                      const Eigen::Matrix4f& from_to) const;
 
   /// Share of `to_walls`, moved by `from_to`, within overlap_range_m that `from_cloud`'s range
