@@ -7,17 +7,42 @@ the last statistics, writes <out>/report.json and prints a summary.
 import argparse
 import json
 import math
+import os
 import time
+import xmlrpc.client
 
+import rosgraph
 import rospy
-from ccir_mapping.msg import (BrokerStats, Keyframe, KeyframeFeatures, LinkStats, MapStats,
-                              TeamTransform)
+from ccir_mapping.msg import (BrokerStats, Keyframe, KeyframeFeatures, LinkStats, LoopClosure,
+                              MapStats, TeamTransform)
 from diagnostic_msgs.msg import DiagnosticArray
+from rosgraph_msgs.msg import Clock
 from nav_msgs.msg import Path
+
+
+def process_cpu_s(pid):
+    """CPU seconds (user + system) a process has used, from /proc."""
+    with open("/proc/%d/stat" % pid) as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def node_pid(name):
+    """Process id of a node of this master."""
+    uri = rosgraph.Master("/demo_report").lookupNode(name)
+    return xmlrpc.client.ServerProxy(uri).getPid("/demo_report")[2]
+
+
+def percentile(values, q):
+    values = sorted(values)
+    return values[min(len(values) - 1, int(q * len(values)))] if values else None
 
 
 class Report:
     def __init__(self):
+        self.mission_time = None
+        self.features_latency_s = []
+        self.loop_latency_s = []
         self.keyframes = []
         self.features = 0
         self.outbox_scans = []
@@ -44,7 +69,23 @@ class Report:
             rospy.Subscriber("inbox/scans", Keyframe, self.on_inbox_scan, queue_size=100),
             rospy.Subscriber("inbox/features", KeyframeFeatures, self.on_inbox_features,
                              queue_size=100),
+            rospy.Subscriber("features", KeyframeFeatures, self.on_own_features, queue_size=100),
+            rospy.Subscriber("loop_closures", LoopClosure, self.on_loop, queue_size=1000),
+            rospy.Subscriber("/clock", Clock, self.on_clock, queue_size=1),
         ]
+
+    # Mission seconds from a keyframe's scan to what the Matcher made of it (this node may have
+    # started before /use_sim_time was set: mission time from /clock itself).
+    def on_clock(self, msg):
+        self.mission_time = msg.clock
+
+    def on_own_features(self, msg):
+        if self.mission_time is not None:
+            self.features_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
+
+    def on_loop(self, msg):
+        if self.mission_time is not None:
+            self.loop_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
 
     def on_keyframe(self, msg):
         p = msg.odom_pose.position
@@ -145,13 +186,16 @@ class Report:
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", required=True, help="output folder")
-    parser.add_argument("--timeout-s", type=float, default=300.0)
+    parser.add_argument("--manager", required=True, help="the robot's nodelet manager node")
+    parser.add_argument("--timeout-s", type=float, default=600.0)
     args = parser.parse_args(rospy.myargv()[1:])
     rospy.init_node("demo_report")
     report = Report()
     deadline = time.monotonic() + args.timeout_s
     while not report.connected() and time.monotonic() < deadline and not rospy.is_shutdown():
         time.sleep(0.05)
+    manager_pid = node_pid(args.manager)
+    cpu_start_s = process_cpu_s(manager_pid)
     rospy.set_param("/demo/ready", True)
     while not rospy.get_param("/demo/playback_done", False) and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -181,6 +225,11 @@ def main():
     while time.monotonic() < mark + 5.0 and not all(t > mark for t in report.updated_at.values()):
         time.sleep(0.05)
     result = report.as_dict()
+    result["manager_cpu_s"] = process_cpu_s(manager_pid) - cpu_start_s
+    result["latency_mission_s"] = {
+        name: {"p50": percentile(values, 0.5), "p99": percentile(values, 0.99), "n": len(values)}
+        for name, values in (("word_sets", report.features_latency_s),
+                             ("loop_closures", report.loop_latency_s))}
     with open(args.out + "/report.json", "w") as f:
         json.dump(result, f, indent=2)
 

@@ -46,6 +46,13 @@ def team_frames(robot, report, plans):
     return known
 
 
+def stage_cpu(nodelets):
+    """CPU seconds of each nodelet's stages, from the "cpu s <stage>" diagnostics."""
+    return {"%s %s" % (name, key[len("cpu s "):]): float(value)
+            for name, info in sorted(nodelets.items())
+            for key, value in info["flow"].items() if key.startswith("cpu s ")}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", required=True, help="demo output folder")
@@ -76,11 +83,30 @@ def main():
             "inbox_features": report.get("inbox_features", 0),
             "links": report.get("links", {}),
             "team_frames": team_frames(plan["name"], report, plans),
+            "scans_missed": flow.get("missed scans (gaps in stamps)", 0),
+            "manager_cpu_s": report.get("manager_cpu_s"),
+            "stage_cpu_s": stage_cpu(report["nodelets"]),
+            "latency_mission_s": report.get("latency_mission_s"),
             "pipeline": report["nodelets"]})
     world = mission["world"]
-    result = {"world": world, "duration_s": mission["end_time_s"] - mission["start_time_s"],
+    duration_s = mission["end_time_s"] - mission["start_time_s"]
+    rate_file = args.out + "/playback_rate"
+    rate = float(open(rate_file).read()) if os.path.exists(rate_file) else 1.0
+    result = {"world": world, "duration_s": duration_s, "playback_rate": rate,
               "seed": mission["parameters"]["seed"], "robots": robots}
     json.dump(result, open(args.out + "/report.json", "w"), indent=2)
+    # The CPU budget's figures (scripts/bench_pipeline prints them).
+    cpu = {"benchmark": "pipeline_cpu", "mission_s": duration_s, "playback_rate": rate,
+           "robots": {r["name"]: {
+               "keyframes": r["keyframes"],
+               "manager_core_share": None if r["manager_cpu_s"] is None
+               else round(r["manager_cpu_s"] / duration_s, 3),
+               "stage_cpu_ms_per_keyframe": {stage: round(1e3 * v / max(1, r["keyframes"]), 1)
+                                             for stage, v in r["stage_cpu_s"].items()},
+               "scans_lost": r["scans_missed"] + r["scans_dropped"],
+               "latency_mission_s": r["latency_mission_s"]} for r in robots},
+           "target_core_share": 0.33}
+    json.dump(cpu, open(args.out + "/cpu.json", "w"), indent=2)
 
     lines = ["%s %.0f x %.0f m, %d robots, %.0f s, seed %d" % (
         world["kind"], world["size_x_m"], world["size_y_m"], len(robots), result["duration_s"],
@@ -121,6 +147,24 @@ def main():
                 lines.append("  %-9s does not know %s's map frame yet: %d inter-robot loop "
                              "closures, %d agreeing ones needed" % (r["name"], t["peer"],
                                                                    t["candidates"], needed))
+    lines.append("  CPU (nodelet manager, per mission second: the share of a core at real time; "
+                 "replayed at %.1f x):" % rate)
+    for r in robots:
+        if r["manager_cpu_s"] is None:
+            continue
+        stages = ", ".join("%s %.0f" % (stage, 1e3 * s / max(1, r["keyframes"]))
+                           for stage, s in r["stage_cpu_s"].items() if s >= 0.05 * r["keyframes"] / 1e3)
+        lat = r["latency_mission_s"] or {}
+        lines.append("  %-9s %.2f core; ms per keyframe: %s" % (
+            r["name"], r["manager_cpu_s"] / duration_s, stages))
+        lines.append("  %-9s lost scans: %d missed, %d dropped; latency (mission s) word set p50 "
+                     "%s p99 %s, loop closure p50 %s p99 %s" % (
+                         r["name"], r["scans_missed"], r["scans_dropped"],
+                         *("%.2f" % v if v is not None else "-"
+                           for v in (lat.get("word_sets", {}).get("p50"),
+                                     lat.get("word_sets", {}).get("p99"),
+                                     lat.get("loop_closures", {}).get("p50"),
+                                     lat.get("loop_closures", {}).get("p99")))))
     total_scans = sum(r["scans_in"] for r in robots)
     total_keyframes = sum(r["keyframes"] for r in robots)
     with open(args.out + "/summary.txt", "w") as f:

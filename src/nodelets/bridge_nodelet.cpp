@@ -165,11 +165,12 @@ class BridgeNodelet final : public PipelineNodelet {
     }
   }
 
-  /// Replaying, the budgets hold per mission second, so that a replay at any speed sends what
-  /// the robots would have sent; live, the bridge keeps its monotonic wall clock.
+  /// Replaying, the budgets hold per mission second (MissionClock), so that a replay at any
+  /// speed sends what the robots would have sent; live, the bridge keeps its monotonic clock.
   static transport::Bridge::Clock clock() {
     if (!ros::Time::isSimTime()) return {};
-    return [] { return ros::Time::now().toSec(); };
+    // The bridge calls it under its own lock.
+    return [reader = std::make_shared<MissionClockReader>()] { return reader->now(); };
   }
 
   void publishStats() {

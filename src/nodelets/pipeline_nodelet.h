@@ -2,6 +2,7 @@
 // counters, and diagnostics that show both.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -15,6 +16,7 @@
 #include <ros/ros.h>
 
 #include "ccir_mapping/core/common/cpu_time.h"
+#include "ccir_mapping/core/common/mission_clock.h"
 #include "ccir_mapping/ros/param_reader.h"
 
 namespace ccir_mapping {
@@ -61,20 +63,36 @@ class PipelineNodelet : public nodelet::Nodelet {
     return work();
   }
 
-  /// A periodic timer on the clock rates should follow: mission time while replaying
-  /// (/use_sim_time), so a replay at any speed does the same work per mission second, and the
-  /// monotonic wall clock live (ros::Time follows the system clock, which may jump).
+  /// A periodic timer on the clock rates should follow: live, the monotonic wall clock
+  /// (ros::Time follows the system clock, which may jump); replaying (/use_sim_time), a
+  /// MissionClock, so that a replay at any speed does the same work per mission second and
+  /// periodic work goes on once the replay has ended.
   template <class Callback>
   void createPeriodicTimer(double period_s, Callback callback) {
     ros::NodeHandle& nh = getNodeHandle();
-    if (ros::Time::isSimTime()) {
-      mission_timers_.push_back(nh.createTimer(ros::Duration(period_s),
-                                               [callback](const ros::TimerEvent&) { callback(); }));
-    } else {
-      steady_timers_.push_back(nh.createSteadyTimer(
+    if (!ros::Time::isSimTime()) {
+      timers_.push_back(nh.createSteadyTimer(
           ros::WallDuration(period_s), [callback](const ros::SteadyTimerEvent&) { callback(); }));
+      return;
     }
+    auto clock = std::make_shared<MissionClockReader>();
+    auto next_s = std::make_shared<double>(period_s);
+    const double poll_s = std::clamp(period_s / 4, 0.01, 0.1);
+    timers_.push_back(
+        nh.createSteadyTimer(ros::WallDuration(poll_s),
+                             [clock, next_s, period_s, callback](const ros::SteadyTimerEvent&) {
+                               const double t = clock->now();
+                               if (t < *next_s) return;
+                               *next_s = std::max(*next_s + period_s, t);
+                               callback();
+                             }));
   }
+  /// Mission time (ros::Time) through a core::MissionClock, with the steady clock beside it.
+  struct MissionClockReader {
+    core::MissionClock clock;
+    double now() { return clock.now(ros::Time::now().toSec(), ros::SteadyTime::now().toSec()); }
+  };
+
   /// Adds a status line to the diagnostics (called from the diagnostics thread).
   virtual void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& /*status*/) {}
 
@@ -94,8 +112,7 @@ class PipelineNodelet : public nodelet::Nodelet {
   std::mutex status_mutex_;
   std::map<std::string, Flow> flows_;
   std::map<std::string, Cpu> cpu_;
-  std::vector<ros::Timer> mission_timers_;
-  std::vector<ros::SteadyTimer> steady_timers_;
+  std::vector<ros::SteadyTimer> timers_;
   std::vector<std::string> config_errors_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::SteadyTimer diagnostics_timer_;

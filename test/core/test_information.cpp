@@ -154,6 +154,19 @@ TEST(OccupancyMap, InsertingAScanLowersEntropyByItsPerVoxelDrops) {
   const auto update = map.computeUpdate(roomScan({0, 0, 0}), {0, 0, 0});
   ASSERT_GT(update.occupied.size(), 100U);
   ASSERT_GT(update.free.size(), 1000U);
+  {  // The same voxels as OctoMap's own computeUpdate.
+    octomap::Pointcloud cloud;
+    for (const auto& p : roomScan({0, 0, 0})) cloud.push_back(p.x, p.y, p.z);
+    octomap::KeySet free_cells;
+    octomap::KeySet occupied_cells;
+    octomap::OcTree tree(map.tree().getResolution());
+    tree.computeUpdate(cloud, {0, 0, 0}, free_cells, occupied_cells,
+                       map.params().max_insert_range_m);
+    EXPECT_EQ(update.free.size(), free_cells.size());
+    EXPECT_EQ(update.occupied.size(), occupied_cells.size());
+    for (const auto& key : update.free) ASSERT_TRUE(free_cells.count(key));
+    for (const auto& key : update.occupied) ASSERT_TRUE(occupied_cells.count(key));
+  }
   const double predicted = map.entropyReduction(update);
   double gains = 0;
   for (const auto& [key, gain] : map.voxelGains(update)) gains += gain;

@@ -54,34 +54,45 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
 }
 
 int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,
-                          const Eigen::Vector3d& origin, octomap::KeySet& free_cells,
-                          octomap::KeySet& occupied_cells) const {
+                          const Eigen::Vector3d& origin, FlatKeySet& free_cells,
+                          FlatKeySet& occupied_cells) const {
   if (!origin.allFinite()) throw std::invalid_argument("computeUpdate: non-finite sensor origin");
+  // OccupancyOcTreeBase::computeUpdate's rule, into flat sets: a beam frees the cells it
+  // crosses up to max_insert_range_m and occupies its endpoint if within it; an endpoint wins
+  // over a crossing.
   int dropped = 0;
-  octomap::Pointcloud cloud;
-  cloud.reserve(points.size());
+  const octomap::point3d from = toOctomap(origin);
+  const auto max_range = static_cast<float>(params_.max_insert_range_m);
+  octomap::KeyRay ray;
   for (const auto& p : points) {
-    if (p.getVector3fMap().allFinite()) {
-      cloud.push_back(p.x, p.y, p.z);
-    } else {
+    if (!p.getVector3fMap().allFinite()) {
       ++dropped;
+      continue;
     }
+    octomap::point3d end(p.x, p.y, p.z);
+    const float range = (end - from).norm();
+    const bool hit = range <= max_range;
+    if (!hit) end = from + (end - from) * (max_range / range);
+    if (tree_.computeRayKeys(from, end, ray)) {
+      for (const auto& key : ray) free_cells.insert(key);
+    }
+    octomap::OcTreeKey key;
+    if (hit && tree_.coordToKeyChecked(end, key)) occupied_cells.insert(key);
   }
-  // const_cast: computeUpdate only reads the tree but is not declared const.
-  const_cast<octomap::OcTree&>(tree_).computeUpdate(cloud, toOctomap(origin), free_cells,
-                                                    occupied_cells, params_.max_insert_range_m);
   return dropped;
 }
 
 ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
                                        const Eigen::Vector3d& origin) const {
   ScanUpdate update;
-  octomap::KeySet free_cells;
-  octomap::KeySet occupied_cells;
+  FlatKeySet free_cells(points.size() * 16);
+  FlatKeySet occupied_cells(points.size());
   update.dropped_points = collect(points, origin, free_cells, occupied_cells);
-  update.free.assign(free_cells.begin(), free_cells.end());
-  update.occupied.assign(occupied_cells.begin(), occupied_cells.end());
-  // KeySet order depends on hashing: sort, so results do not depend on the standard library.
+  free_cells.forEach([&](const octomap::OcTreeKey& key) {
+    if (!occupied_cells.contains(key)) update.free.push_back(key);
+  });
+  occupied_cells.forEach([&](const octomap::OcTreeKey& key) { update.occupied.push_back(key); });
+  // Set order depends on hashing: sort, so results are reproducible and comparable.
   auto less = [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
     return std::lexicographical_compare(&a[0], &a[0] + 3, &b[0], &b[0] + 3);
   };
@@ -121,11 +132,13 @@ void OccupancyMap::insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
   }
   pcl::PointCloud<pcl::PointXYZ> map_points;
   pcl::transformPointCloud(sensor_points, map_points, map_from_sensor.matrix().cast<float>());
-  octomap::KeySet free_cells;
-  octomap::KeySet occupied_cells;
+  FlatKeySet free_cells(map_points.size() * 16);
+  FlatKeySet occupied_cells(map_points.size());
   collect(map_points, map_from_sensor.translation(), free_cells, occupied_cells);
-  for (const auto& key : free_cells) update(key, false);
-  for (const auto& key : occupied_cells) update(key, true);
+  free_cells.forEach([&](const octomap::OcTreeKey& key) {
+    if (!occupied_cells.contains(key)) update(key, false);
+  });
+  occupied_cells.forEach([&](const octomap::OcTreeKey& key) { update(key, true); });
 }
 
 float OccupancyMap::updatedLogOdds(float log_odds, bool hit) const {

@@ -14,6 +14,7 @@
 
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/information/csqmi.h"
+#include "ccir_mapping/core/information/flat_key_set.h"
 #include "ccir_mapping/core/information/mapper_params.h"
 
 namespace ccir_mapping::core::information {
@@ -104,7 +105,7 @@ class OccupancyMap {
 
   /// The voxels `points` (map frame) seen from `origin` update; returns the non-finite points.
   int collect(const pcl::PointCloud<pcl::PointXYZ>& points, const Eigen::Vector3d& origin,
-              octomap::KeySet& free_cells, octomap::KeySet& occupied_cells) const;
+              FlatKeySet& free_cells, FlatKeySet& occupied_cells) const;
   /// One voxel's hit or miss, with the entropy box's statistics following it.
   void update(const octomap::OcTreeKey& key, bool hit);
 
