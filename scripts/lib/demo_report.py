@@ -84,7 +84,10 @@ class Report:
             self.features_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
 
     def on_loop(self, msg):
-        if self.mission_time is not None:
+        # Only closures of this robot's own keyframes: one found for a teammate's scan carries
+        # that scan's stamp, and its age is the link's queue, not the pipeline's.
+        own = msg.header.stamp.to_sec() in {k["stamp"] for k in self.keyframes}
+        if self.mission_time is not None and own:
             self.loop_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
 
     def on_keyframe(self, msg):

@@ -46,7 +46,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
     if (settings_.odom_source == "topic") {
       odom_sub_ = nh.subscribe(topics::kOdometry, 100, &PreprocessorNodelet::onOdometry, this);
     }
-    cloud_sub_ = nh.subscribe(topics::kVelodynePoints, topics::kSensorQueueSize,
+    cloud_sub_ = nh.subscribe(topics::kVelodynePoints, settings_.scan_queue_size,
                               &PreprocessorNodelet::onCloud, this);
     if (settings_.odom_source == "tf") {
       // tf arrives on the listener's own thread: look again for scans it can now place.

@@ -104,6 +104,10 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   if (config.odom_source != "topic" && config.odom_source != "tf") {
     reader.addError(core::notOneOf("odom_source", config.odom_source, "topic | tf"));
   }
+  reader.read("scan_queue_size", config.scan_queue_size);
+  core::ParamCheck queue;
+  queue.inRange("scan_queue_size", config.scan_queue_size, 1, 1000);
+  reader.addErrors(queue.errors());
   auto& p = config.core;
   reader.read("min_range_m", p.min_range_m);
   reader.read("max_range_m", p.max_range_m);

@@ -43,6 +43,12 @@ TEST(ParamLoading, OutOfRangeValueNamesParameterAndRange) {
   load(reader, settings);
   ASSERT_EQ(reader.errors().size(), 1u);
   EXPECT_EQ(reader.errors()[0], "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");
+
+  ParamReader queue_reader{params("{scan_queue_size: 0}")};
+  PreprocessorSettings fresh;
+  load(queue_reader, fresh);
+  ASSERT_EQ(queue_reader.errors().size(), 1u);
+  EXPECT_EQ(queue_reader.errors()[0], "scan_queue_size = 0 is out of range: allowed [1, 1000]");
 }
 
 TEST(ParamLoading, WrongTypesAreErrors) {

@@ -28,6 +28,10 @@ struct PreprocessorSettings {
   /// "topic": nav_msgs/Odometry on `odom` (base_frame in odom_frame); "tf": odom_frame ->
   /// sensor frame from tf.
   std::string odom_source = "topic";
+  /// Scans the velodyne_points subscriber holds while the Preprocessor is busy (roscpp drops
+  /// the oldest of a full queue; the Preprocessor counts them as missed): 2 s of a VLP-16,
+  /// enough for a manager that a busy machine stalls for a moment.
+  int scan_queue_size = 20;
   core::preprocess::PreprocessorParams core;
 };
 

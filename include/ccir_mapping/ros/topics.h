@@ -34,8 +34,8 @@ constexpr char kInboxRequests[] = "inbox/requests";
 constexpr char kInboxScans[] = "inbox/scans";
 constexpr char kInboxReceipts[] = "inbox/receipts";
 
-// Queue sizes: keyframes are few and precious; stats only matter when fresh.
-constexpr int kSensorQueueSize = 5;
+// Queue sizes: keyframes are few and precious; stats only matter when fresh (scans: the
+// Preprocessor's scan_queue_size).
 constexpr int kKeyframeQueueSize = 100;
 constexpr int kMessageQueueSize = 50;
 /// Loop closures are small and may come in bursts (a teammate's backlog): none may be lost.
