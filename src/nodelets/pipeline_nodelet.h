@@ -17,6 +17,7 @@
 
 #include "ccir_mapping/core/common/cpu_time.h"
 #include "ccir_mapping/core/common/mission_clock.h"
+#include "ccir_mapping/core/common/periodic_schedule.h"
 #include "ccir_mapping/ros/param_reader.h"
 
 namespace ccir_mapping {
@@ -76,15 +77,11 @@ class PipelineNodelet : public nodelet::Nodelet {
       return;
     }
     auto clock = std::make_shared<MissionClockReader>();
-    auto next_s = std::make_shared<double>(period_s);
-    const double poll_s = std::clamp(period_s / 4, 0.01, 0.1);
+    auto schedule = std::make_shared<core::PeriodicSchedule>(period_s);
     timers_.push_back(
-        nh.createSteadyTimer(ros::WallDuration(poll_s),
-                             [clock, next_s, period_s, callback](const ros::SteadyTimerEvent&) {
-                               const double t = clock->now();
-                               if (t < *next_s) return;
-                               *next_s = std::max(*next_s + period_s, t);
-                               callback();
+        nh.createSteadyTimer(ros::WallDuration(std::clamp(period_s / 4, 0.01, 0.1)),
+                             [clock, schedule, callback](const ros::SteadyTimerEvent&) {
+                               if (schedule->due(clock->now())) callback();
                              }));
   }
   /// Mission time (ros::Time) through a core::MissionClock, with the steady clock beside it.

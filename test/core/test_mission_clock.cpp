@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "ccir_mapping/core/common/mission_clock.h"
+#include "ccir_mapping/core/common/periodic_schedule.h"
 
 namespace ccir_mapping::core {
 namespace {
@@ -29,6 +30,18 @@ TEST(MissionClock, NeverGoesBack) {
   clock.now(51.0, 1.0);
   EXPECT_DOUBLE_EQ(clock.now(20.0, 1.1), 1.0) << "a bag replayed again";
   EXPECT_DOUBLE_EQ(clock.now(20.5, 1.2), 1.5) << "followed from where it is";
+}
+
+TEST(PeriodicSchedule, OncePerPeriodAndOnceAfterAJump) {
+  PeriodicSchedule every_second(1.0);
+  EXPECT_FALSE(every_second.due(0.0));
+  EXPECT_FALSE(every_second.due(0.99));
+  EXPECT_TRUE(every_second.due(1.02));
+  EXPECT_FALSE(every_second.due(1.5));
+  EXPECT_TRUE(every_second.due(2.0)) << "due times do not drift with late looks";
+  EXPECT_TRUE(every_second.due(50.0)) << "a jump";
+  EXPECT_FALSE(every_second.due(50.5));
+  EXPECT_TRUE(every_second.due(51.0));
 }
 
 }  // namespace
