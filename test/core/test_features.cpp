@@ -422,6 +422,33 @@ TEST(ScanVerifier, SurfaceWhereTheOtherScanSawFreeSpaceIsRejected) {
   }
 }
 
+TEST(ScanVerifier, ACloudWithNothingToAlignIsRejectedNotCrashed) {
+  // Features that agree, but no point within gicp_max_range_m (40 m) in one cloud.
+  const auto near = room(8.0F, 0.1F);
+  pcl::PointCloud<pcl::PointXYZINormal> far;
+  for (auto p : near) {
+    p.x += 100.0F;
+    far.push_back(p);
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
+  features::LocalFeatures features;
+  for (int i = 0; i < 20; ++i) {
+    features::SpinImage d;
+    for (float& v : d) v = 0.5F + 0.05F * u(rng);
+    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
+    features.descriptors.push_back(d);
+  }
+  const ScanVerifier verifier{VerificationParams{}};
+  for (const auto& v :
+       {verifier.verify(near, features, far, features),
+        verifier.verify(far, features, near, features),
+        verifier.verify(pcl::PointCloud<pcl::PointXYZINormal>(), features, near, features)}) {
+    EXPECT_FALSE(v.accepted);
+    EXPECT_NE(v.reason.find("too few to align"), std::string::npos) << v.reason;
+  }
+}
+
 TEST(ScanVerifier, InvalidParametersAreNamed) {
   VerificationParams params;
   params.match_neighbors = 0;

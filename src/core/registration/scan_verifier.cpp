@@ -174,9 +174,9 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
   PreparedScan scan;
   scan.cloud = prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.cloud_tree = pcl::make_shared<PreparedScan::Tree>();
-  scan.cloud_tree->setInputCloud(scan.cloud);
   scan.covariances = std::make_shared<PreparedScan::Covariances>();
   if (!scan.cloud->empty()) {
+    scan.cloud_tree->setInputCloud(scan.cloud);
     Gicp().covariancesOf(scan.cloud, scan.cloud_tree, *scan.covariances);
   }
   scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
@@ -235,6 +235,15 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   const Eigen::Matrix4f initial =
       Eigen::Map<const Eigen::Matrix<float, 4, 4, Eigen::RowMajor>>(coefficients.data());
 
+  // GICP needs a point per covariance neighbourhood in each cloud (its trees and covariances
+  // are only made for such clouds).
+  for (const PreparedScan* scan : {&from_scan, &to_scan}) {
+    if (scan->covariances->size() != scan->cloud->size() || scan->cloud->empty()) {
+      v.reason = "a cloud has " + std::to_string(scan->cloud->size()) +
+                 " points within gicp_max_range_m, too few to align";
+      return v;
+    }
+  }
   Gicp gicp;
   gicp.setInputSource(to_scan.cloud);
   gicp.setSourceCovariances(to_scan.covariances);
