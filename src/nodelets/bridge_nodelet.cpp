@@ -186,12 +186,15 @@ class BridgeNodelet final : public PipelineNodelet {
       stats->bytes_received = report.received.bytes_received;
       stats->messages_sent = report.sent.messages_sent;
       stats->messages_received = report.received.messages_received;
-      auto& last = last_report_[report.peer];
-      if (!last.first.isZero() && now > last.first) {
-        stats->send_rate_bytes_per_s = static_cast<double>(report.sent.bytes_sent - last.second) /
-                                       std::max(1e-3, (now - last.first).toSec());
+      // Per second of the bridge's clock (mission time while replaying; the wall clock once
+      // the replay has ended and the queues drain).
+      const auto last = last_report_.find(report.peer);
+      if (last != last_report_.end() && report.at_s > last->second.first) {
+        stats->send_rate_bytes_per_s =
+            static_cast<double>(report.sent.bytes_sent - last->second.second) /
+            (report.at_s - last->second.first);
       }
-      last = {now, report.sent.bytes_sent};
+      last_report_[report.peer] = {report.at_s, report.sent.bytes_sent};
       stats->budget_bytes_per_s = settings_.core.budget_bytes_per_s;
       stats->queued_control = static_cast<std::uint32_t>(report.queued_control);
       stats->queued_bulk = static_cast<std::uint32_t>(report.queued_bulk);
@@ -220,7 +223,7 @@ class BridgeNodelet final : public PipelineNodelet {
   ros::Publisher stats_pub_;
   std::vector<ros::Subscriber> subs_;
   ros::SteadyTimer flush_timer_;
-  std::map<std::string, std::pair<ros::Time, std::uint64_t>> last_report_;
+  std::map<std::string, std::pair<double, std::uint64_t>> last_report_;  // at_s, bytes sent
   std::mutex inbox_mutex_;
   std::map<std::string, Inbox> inboxes_;
   // Last, so it is destroyed first: its thread calls onInbox.

@@ -268,6 +268,7 @@ TEST(BridgeNetwork, FollowsTheMissionClockAtHalfSpeed) {
   ASSERT_TRUE(at_b.waitFor("robot_a:inbox/scans", 1, 20.0)) << "the link came up";
   std::this_thread::sleep_until(wall_start + std::chrono::milliseconds(700));  // past the jump
   const double sent_at_s = mission_s();
+  const double reported_at_s = a.reports()[0].at_s;
   constexpr int kScans = 20;
   for (std::uint32_t n = 1; n <= kScans; ++n) a.publish(scans, numbered(15000, n));
   ASSERT_TRUE(at_b.waitFor("robot_a:inbox/scans", kScans + 1, 60.0));
@@ -275,6 +276,8 @@ TEST(BridgeNetwork, FollowsTheMissionClockAtHalfSpeed) {
   const double budget = pa.budget_bytes_per_s;
   // Payload only (the wire carries more): at least (bytes - burst) / rate mission seconds.
   EXPECT_GE(took_s, (kScans * 15000.0 - pa.burst_bytes) / budget) << "mission seconds";
+  // Reports are stamped on the same clock (LinkStats rates are per its second).
+  EXPECT_NEAR(a.reports()[0].at_s - reported_at_s, took_s, 0.5);
   std::lock_guard<std::mutex> lock(warnings_mutex);
   for (const auto& w : warnings) ADD_FAILURE() << w;
 }

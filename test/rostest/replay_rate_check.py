@@ -145,6 +145,13 @@ class ReplayRate(unittest.TestCase):
                     return sa + (sb - sa) * (t - ta) / (tb - ta)
             self.fail("no link report around mission time %.1f s" % t)
         rate_bytes_per_s = (sent_at(t1) - sent_at(t0)) / (t1 - t0)
+        # LinkStats' own rate is per second of the bridge's clock too.
+        reported = sorted(float(r["field.send_rate_bytes_per_s"]) for r in rows(link_csv)
+                          if t0 <= int(r["field.header.stamp"]) * 1e-9 <= t1)
+        self.assertGreater(len(reported), 10)
+        median = reported[len(reported) // 2]
+        self.assertLess(abs(median - BUDGET), 0.2 * BUDGET,
+                        "send_rate_bytes_per_s %.0f at %sx" % (median, rate))
         self.stop_all()
         return rate_bytes_per_s, scans_sent
 

@@ -452,6 +452,7 @@ std::vector<LinkReport> Bridge::reports() {
     r.queued_control = link->session.queued(Priority::kControl);
     r.queued_bulk = link->session.queued(Priority::kBulk);
     r.silent_s = r.received.last_heard_s < 0 ? -1.0 : t - r.received.last_heard_s;
+    r.at_s = t;
     r.drops = link->refused;
     r.drops["queue_full"] = r.sent.dropped_queue_full;
     r.drops["too_old"] = r.sent.dropped_expired;

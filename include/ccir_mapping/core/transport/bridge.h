@@ -32,6 +32,8 @@ struct LinkReport {
   std::map<std::string, std::uint64_t> drops;
   /// Seconds on the bridge's clock since the peer was last heard (negative: never).
   double silent_s = -1.0;
+  /// The bridge's clock at the report: what its budget follows, so rates are per its second.
+  double at_s = 0.0;
 };
 
 class Bridge {
