@@ -9,6 +9,8 @@
 #include <sensor_msgs/PointField.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "ccir_mapping/core/transport/scan_codec.h"
+
 namespace ccir_mapping::conversions {
 namespace {
 
@@ -189,6 +191,61 @@ std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud
     }
   }
   pcl::fromROSMsg(cloud, *out);  // fields and buffer size checked above
+  return std::nullopt;
+}
+
+std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out) {
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  if (auto error = toKeyframeCloud(keyframe.cloud, &cloud)) return error;
+  std::vector<core::transport::ScanPoint> points(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const auto& p = cloud[i];
+    points[i] = {p.x, p.y, p.z, p.normal_x, p.normal_y, p.normal_z, p.intensity};
+  }
+  std::string error;
+  auto encoded = core::transport::encodeScan(points, &error);
+  if (!encoded) return error;
+  out->header = keyframe.header;
+  out->robot = keyframe.robot;
+  out->id = keyframe.id;
+  out->odom_frame = keyframe.odom_frame;
+  out->odom_pose = keyframe.odom_pose;
+  out->travelled_m = keyframe.travelled_m;
+  out->rotated_rad = keyframe.rotated_rad;
+  out->point_count = static_cast<std::uint32_t>(points.size());
+  out->points = std::move(*encoded);
+  return std::nullopt;
+}
+
+std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
+                                      Keyframe* out) {
+  std::string error;
+  const auto points = core::transport::decodeScan(scan.points, max_points, &error);
+  if (!points) return "points: " + error;
+  if (points->size() != scan.point_count) return std::string("point_count does not match points");
+  if (!toPose(scan.odom_pose)) return std::string("odom_pose is not finite");
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  cloud.resize(points->size());
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    const auto& p = (*points)[i];
+    auto& q = cloud[i];
+    q.x = p.x;
+    q.y = p.y;
+    q.z = p.z;
+    q.normal_x = p.normal_x;
+    q.normal_y = p.normal_y;
+    q.normal_z = p.normal_z;
+    q.intensity = p.intensity;
+  }
+  pcl::toROSMsg(cloud, out->cloud);
+  out->header = scan.header;
+  out->cloud.header = scan.header;
+  out->robot = scan.robot;
+  out->id = scan.id;
+  out->odom_frame = scan.odom_frame;
+  out->odom_pose = scan.odom_pose;
+  out->travelled_m = scan.travelled_m;
+  out->rotated_rad = scan.rotated_rad;
   return std::nullopt;
 }
 

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 
+#include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include "ccir_mapping/ros/conversions.h"
@@ -128,6 +129,74 @@ TEST(Conversions, ToPclKeepsLayoutAndReadsIntensityOfAnyWidth) {
   plain.fields[3].name = "reflectivity";
   toPcl(plain, &out);
   for (const auto& p : out) EXPECT_EQ(p.intensity, 0.0F);
+}
+
+TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  for (int i = 0; i < 200; ++i) {
+    pcl::PointXYZINormal p;
+    p.x = 0.1F * i;
+    p.y = 3.0F - 0.013F * i;
+    p.z = -1.2F;
+    p.normal_x = 0.6F;
+    p.normal_z = 0.8F;
+    p.intensity = static_cast<float>(i % 256);
+    cloud.push_back(p);
+  }
+  Keyframe keyframe;
+  keyframe.header.stamp = ros::Time(12, 345);
+  keyframe.header.frame_id = "robot_a/velodyne";
+  keyframe.robot = "robot_a";
+  keyframe.id = 42;
+  keyframe.odom_frame = "robot_a/odom";
+  keyframe.odom_pose = toPoseMsg(core::Pose3(Eigen::Translation3d(1, 2, 3)));
+  keyframe.travelled_m = 1.5F;
+  keyframe.rotated_rad = 0.25F;
+  pcl::toROSMsg(cloud, keyframe.cloud);
+  keyframe.cloud.header = keyframe.header;
+
+  SharedScan shared;
+  ASSERT_FALSE(toSharedScan(keyframe, &shared));
+  EXPECT_EQ(shared.point_count, 200U);
+  EXPECT_LT(shared.points.size(), keyframe.cloud.data.size() / 5);
+
+  Keyframe back;
+  ASSERT_FALSE(toKeyframe(shared, 1000, &back));
+  EXPECT_EQ(back.header.stamp, keyframe.header.stamp);
+  EXPECT_EQ(back.header.frame_id, keyframe.header.frame_id);
+  EXPECT_EQ(back.cloud.header.frame_id, keyframe.header.frame_id);
+  EXPECT_EQ(back.robot, "robot_a");
+  EXPECT_EQ(back.id, 42U);
+  EXPECT_EQ(back.odom_frame, "robot_a/odom");
+  EXPECT_EQ(back.odom_pose.position.y, 2.0);
+  EXPECT_EQ(back.travelled_m, 1.5F);
+  EXPECT_EQ(back.rotated_rad, 0.25F);
+  pcl::PointCloud<pcl::PointXYZINormal> points;
+  ASSERT_FALSE(toKeyframeCloud(back.cloud, &points));  // the layout the Matcher reads
+  ASSERT_EQ(points.size(), 200U);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_NEAR(points[i].x, cloud[i].x, 5e-4);
+    EXPECT_NEAR(points[i].y, cloud[i].y, 5e-4);
+    EXPECT_NEAR(points[i].normal_x, 0.6, 0.01);
+    EXPECT_NEAR(points[i].normal_z, 0.8, 0.01);
+    EXPECT_EQ(points[i].intensity, cloud[i].intensity);
+  }
+
+  // A teammate's malformed scans are refused with a reason.
+  EXPECT_TRUE(toKeyframe(shared, 199, &back));  // more points than this robot accepts
+  auto wrong_count = shared;
+  wrong_count.point_count = 7;
+  EXPECT_TRUE(toKeyframe(wrong_count, 1000, &back));
+  auto garbage = shared;
+  garbage.points.resize(garbage.points.size() / 2);
+  EXPECT_TRUE(toKeyframe(garbage, 1000, &back));
+  auto bad_pose = shared;
+  bad_pose.odom_pose.orientation.w = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(toKeyframe(bad_pose, 1000, &back));
+  // A keyframe without normals has no wire form.
+  auto velodyne = keyframe;
+  velodyne.cloud = velodyneCloud(10);
+  EXPECT_TRUE(toSharedScan(velodyne, &shared));
 }
 
 }  // namespace

@@ -11,6 +11,8 @@
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/SharedScan.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
 
@@ -51,5 +53,13 @@ void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI
 /// normal_z, FLOAT32). Returns an error naming what is wrong, leaving `out` empty.
 std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud,
                                            pcl::PointCloud<pcl::PointXYZINormal>* out);
+
+/// A keyframe in its wire form (SharedScan.msg, core/transport/scan_codec.h). Returns an error
+/// naming what is wrong (the cloud is not a keyframe cloud, a value is not finite).
+std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out);
+/// A teammate's scan back as a keyframe (cloud x y z intensity normals, FLOAT32, as the
+/// Preprocessor makes it). `max_points` bounds what a peer can make this robot allocate.
+std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
+                                      Keyframe* out);
 
 }  // namespace ccir_mapping::conversions

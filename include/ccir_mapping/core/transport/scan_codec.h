@@ -1,0 +1,40 @@
+// Compact wire form of a shared keyframe scan: what a teammate needs to map it and to verify a
+// loop closure against it (positions, normals, intensity), about a fifth of the PointCloud2.
+//
+// Positions are fixed-point at 1 mm in the sensor frame (the voxel filter has already put
+// points 0.1 m apart, and the sensor is good to ~3 cm), delta-coded from point to point in the
+// scan's order as zig-zag varints (the voxel filter's order keeps neighbours close), normals as
+// three int8 at 1/127, intensity as uint8 (a VLP-16 reports integers 0..255), each in a plane of
+// its own; then zstd. No library encodes PCL clouds this way without a dependency we lack
+// (draco, PCL's octree compression loses points), so it is written here.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ccir_mapping::core::transport {
+
+struct ScanPoint {
+  float x = 0, y = 0, z = 0;
+  float normal_x = 0, normal_y = 0, normal_z = 0;
+  float intensity = 0;
+};
+
+/// Steps of the quantisation (the largest error is half of each).
+constexpr double kScanPositionStepM = 0.001;
+constexpr double kScanNormalStep = 1.0 / 127.0;
+
+/// The encoded scan, or nullopt (with `error` set when given) for a non-finite value or a
+/// coordinate beyond +-1000 km.
+std::optional<std::vector<std::uint8_t>> encodeScan(const std::vector<ScanPoint>& points,
+                                                    std::string* error = nullptr);
+/// The points, or nullopt with the reason for anything that is not one complete encoding of
+/// at most `max_points` points (truncated, oversized, trailing bytes, unknown version).
+std::optional<std::vector<ScanPoint>> decodeScan(const std::vector<std::uint8_t>& bytes,
+                                                 std::size_t max_points,
+                                                 std::string* error = nullptr);
+
+}  // namespace ccir_mapping::core::transport
