@@ -63,26 +63,37 @@ class BridgeNodelet final : public PipelineNodelet {
     }
     stats_pub_ = nh.advertise<LinkStats>(topics::kLinkStats, topics::kMessageQueueSize);
     for (const auto& forwarded : settings_.core.topics) {
-      // Subscribed for the whole event: a lambda handed to subscribe<M>() binds to the ConstPtr
-      // overload and loses the connection header (and with it the latching flag).
-      using Event = const ros::MessageEvent<topic_tools::ShapeShifter const>&;
-      ros::SubscribeOptions options;
-      options.initByFullCallbackType<Event>(
-          forwarded.topic, topics::kMessageQueueSize,
-          [this, forwarded](Event event) { onOutbox(forwarded, event); });
-      subs_.push_back(nh.subscribe(options));
+      // "outbox/X" goes to every peer; "outbox/to/<peer>/X" to that peer alone, as "inbox/X"
+      // (the Broker addresses offers, requests, receipts and scans).
+      const std::string rest = forwarded.topic.substr(std::string("outbox/").size());
+      subscribeOutbox(forwarded.topic, forwarded, "");
+      for (const auto& peer : settings_.core.peers)
+        subscribeOutbox(topics::outboxTo(peer.name, rest), forwarded, peer.name);
     }
     if (settings_.core.peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
     createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     flush_timer_ = nh.createSteadyTimer(ros::WallDuration(0.1), &BridgeNodelet::onFlushTimer, this);
   }
 
-  void onOutbox(const transport::ForwardedTopic& forwarded,
+  void subscribeOutbox(const std::string& name, const transport::ForwardedTopic& forwarded,
+                       const std::string& peer) {
+    // Subscribed for the whole event: a lambda handed to subscribe<M>() binds to the ConstPtr
+    // overload and loses the connection header (and with it the latching flag).
+    using Event = const ros::MessageEvent<topic_tools::ShapeShifter const>&;
+    ros::SubscribeOptions options;
+    options.initByFullCallbackType<Event>(
+        name, topics::kMessageQueueSize,
+        [this, forwarded, peer](Event event) { onOutbox(forwarded, peer, event); });
+    subs_.push_back(getNodeHandle().subscribe(options));
+  }
+
+  void onOutbox(const transport::ForwardedTopic& forwarded, const std::string& peer,
                 const ros::MessageEvent<topic_tools::ShapeShifter const>& event) {
     const topic_tools::ShapeShifter& msg = *event.getConstMessage();
-    count("in " + forwarded.topic, msg.size());
+    const std::string rest = forwarded.topic.substr(std::string("outbox/").size());
+    count("in " + (peer.empty() ? forwarded.topic : topics::outboxTo(peer, rest)), msg.size());
     transport::TopicInfo topic;
-    topic.name = "inbox/" + forwarded.topic.substr(std::string("outbox/").size());
+    topic.name = "inbox/" + rest;
     topic.type = msg.getDataType();
     topic.md5 = msg.getMD5Sum();
     topic.definition = msg.getMessageDefinition();
@@ -94,7 +105,7 @@ class BridgeNodelet final : public PipelineNodelet {
     std::vector<std::uint8_t> bytes(msg.size());
     ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
     msg.write(stream);
-    if (!bridge_->publish(topic, std::move(bytes))) {
+    if (!bridge_->publish(topic, std::move(bytes), peer)) {
       NODELET_WARN_THROTTLE(5.0,
                             "not forwarding %s: its type is now %s, teammates know it as another",
                             forwarded.topic.c_str(), topic.type.c_str());
@@ -198,6 +209,9 @@ class BridgeNodelet final : public PipelineNodelet {
       stats->budget_bytes_per_s = settings_.core.budget_bytes_per_s;
       stats->queued_control = static_cast<std::uint32_t>(report.queued_control);
       stats->queued_bulk = static_cast<std::uint32_t>(report.queued_bulk);
+      stats->queued_control_bytes = report.queued_control_bytes;
+      stats->queued_bulk_bytes = report.queued_bulk_bytes;
+      stats->total_budget_bytes_per_s = settings_.core.total_budget_bytes_per_s;
       for (const auto& [reason, n] : report.drops) {
         if (n == 0) continue;
         stats->drop_reasons.push_back(reason);

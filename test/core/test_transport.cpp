@@ -254,8 +254,10 @@ TEST(LinkScheduler, ControlOvertakesAScanBetweenItsFragments) {
   EXPECT_EQ(first->topic, kScans);
   EXPECT_EQ(first->fragments, 4);
   EXPECT_EQ(link.queued(Priority::kBulk), 1U) << "a scan half sent is still queued";
+  EXPECT_EQ(link.queuedBytes(Priority::kBulk), 200000U - first->payload.size());
   EXPECT_EQ(link.enqueue(kOffers, std::vector<std::uint8_t>(100, 2), 0.0), 1U);
   EXPECT_EQ(link.enqueue(kOffers, std::vector<std::uint8_t>(100, 3), 0.0), 2U);
+  EXPECT_EQ(link.queuedBytes(Priority::kControl), 200U);
   // The bucket is short now: nothing until it refills, then the offers, then the scan goes on.
   std::vector<std::uint16_t> order;
   double t = 0.0;
@@ -267,6 +269,7 @@ TEST(LinkScheduler, ControlOvertakesAScanBetweenItsFragments) {
   }
   EXPECT_EQ(order, (std::vector<std::uint16_t>{kOffers, kOffers, kScans, kScans, kScans}));
   EXPECT_EQ(link.counters().messages_sent, 3U);
+  EXPECT_EQ(link.queuedBytes(Priority::kBulk) + link.queuedBytes(Priority::kControl), 0U);
 }
 
 TEST(LinkScheduler, SaturatedLinkStaysInBudgetAndControlStaysFast) {

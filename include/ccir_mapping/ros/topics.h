@@ -1,6 +1,8 @@
 // Default topic names, all relative to the robot's namespace; expected to be remapped as needed.
 #pragma once
 
+#include <string>
+
 namespace ccir_mapping::topics {
 
 // Sensor input.
@@ -26,6 +28,11 @@ constexpr char kOutboxOffers[] = "outbox/offers";
 constexpr char kOutboxRequests[] = "outbox/requests";
 constexpr char kOutboxScans[] = "outbox/scans";
 constexpr char kOutboxReceipts[] = "outbox/receipts";
+
+/// "outbox/to/<peer>/<rest>": what the Bridge carries to that peer alone, as "inbox/<rest>".
+inline std::string outboxTo(const std::string& peer, const std::string& rest) {
+  return "outbox/to/" + peer + "/" + rest;
+}
 
 // From teammates, republished by the Bridge.
 constexpr char kInboxFeatures[] = "inbox/features";

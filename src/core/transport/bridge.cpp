@@ -411,7 +411,8 @@ void Bridge::start() {
   m.thread = std::thread([&m] { m.io.run(); });
 }
 
-bool Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) {
+bool Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message,
+                     const std::string& only_peer) {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   const double t = m.now();
@@ -424,10 +425,14 @@ bool Bridge::publish(const TopicInfo& topic, std::vector<std::uint8_t> message) 
     ++m.type_changed;
     return false;
   }
+  std::vector<std::size_t> to;
   for (std::size_t i = 0; i < m.links.size(); ++i) {
+    if (only_peer.empty() || m.links[i]->config.name == only_peer) to.push_back(i);
+  }
+  for (std::size_t n = 0; n < to.size(); ++n) {
     // The last link takes the message itself, the others a copy.
-    auto bytes = i + 1 == m.links.size() ? std::move(message) : message;
-    m.links[i]->session.send(known->second.second[i], std::move(bytes), t);
+    auto bytes = n + 1 == to.size() ? std::move(message) : message;
+    m.links[to[n]]->session.send(known->second.second[to[n]], std::move(bytes), t);
   }
   asio::post(m.io, [&m] {
     std::lock_guard<std::mutex> lock(m.mutex);
@@ -451,6 +456,8 @@ std::vector<LinkReport> Bridge::reports() {
     r.received = link->session.sessionCounters();
     r.queued_control = link->session.queued(Priority::kControl);
     r.queued_bulk = link->session.queued(Priority::kBulk);
+    r.queued_control_bytes = link->session.queuedBytes(Priority::kControl);
+    r.queued_bulk_bytes = link->session.queuedBytes(Priority::kBulk);
     r.silent_s = r.received.last_heard_s < 0 ? -1.0 : t - r.received.last_heard_s;
     r.at_s = t;
     r.drops = link->refused;

@@ -122,4 +122,15 @@ std::size_t LinkScheduler::queued(Priority priority) const {
          (in_flight == in_flight_.end() || in_flight->second.empty() ? 0 : 1);
 }
 
+std::size_t LinkScheduler::queuedBytes(Priority priority) const {
+  std::size_t bytes = 0;
+  if (const auto waiting = waiting_.find(priority); waiting != waiting_.end()) {
+    for (const Message& message : waiting->second) bytes += message.bytes.size();
+  }
+  if (const auto in_flight = in_flight_.find(priority); in_flight != in_flight_.end()) {
+    for (const Frame& frame : in_flight->second) bytes += frame.payload.size();
+  }
+  return bytes;
+}
+
 }  // namespace ccir_mapping::core::transport

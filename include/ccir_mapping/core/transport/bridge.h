@@ -28,6 +28,8 @@ struct LinkReport {
   SessionCounters received;
   std::size_t queued_control = 0;
   std::size_t queued_bulk = 0;
+  std::size_t queued_control_bytes = 0;
+  std::size_t queued_bulk_bytes = 0;
   /// Messages dropped and streams refused, by reason.
   std::map<std::string, std::uint64_t> drops;
   /// Seconds on the bridge's clock since the peer was last heard (negative: never).
@@ -60,7 +62,9 @@ class Bridge {
   void start();
   /// A local message for every peer (thread-safe). The first message of a topic name fixes its
   /// type; later ones of another md5 are dropped ("type_changed") and false is returned.
-  bool publish(const TopicInfo& topic, std::vector<std::uint8_t> message);
+  /// With `only_peer` the message goes to that peer alone (none if it is not configured).
+  bool publish(const TopicInfo& topic, std::vector<std::uint8_t> message,
+               const std::string& only_peer = {});
   /// Thread-safe snapshot; the last entry (peer "") counts connections refused before they said
   /// who they are, if any.
   std::vector<LinkReport> reports();

@@ -56,6 +56,8 @@ class LinkScheduler {
 
   /// Messages of a class not yet sent whole (waiting, and the one whose fragments are going).
   std::size_t queued(Priority priority) const;
+  /// Their bytes still to send (payload, without frame overhead).
+  std::size_t queuedBytes(Priority priority) const;
   const LinkCounters& counters() const { return counters_; }
 
  private:

@@ -111,6 +111,7 @@ class PeerSession {
   const LinkCounters& counters() const { return scheduler_.counters(); }
   const SessionCounters& sessionCounters() const { return counters_; }
   std::size_t queued(Priority priority) const { return scheduler_.queued(priority); }
+  std::size_t queuedBytes(Priority priority) const { return scheduler_.queuedBytes(priority); }
   std::uint64_t duplicatesDropped() const { return filter_.duplicates(); }
   /// Reliable messages the peer never got: given up by its outbox bound, seen as gaps here.
   std::uint64_t missing() const { return filter_.missing(); }
