@@ -158,6 +158,11 @@ double OccupancyMap::entropyDrop(const octomap::OcTreeKey& key, bool hit) const 
          occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
 }
 
+std::vector<VoxelGain> OccupancyMap::scanGains(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                                               const Pose3& map_from_sensor) const {
+  return voxelGains(computeUpdate(sensor_points, map_from_sensor));
+}
+
 std::vector<VoxelGain> OccupancyMap::voxelGains(const ScanUpdate& update) const {
   std::vector<VoxelGain> gains;
   gains.reserve(update.free.size() + update.occupied.size());

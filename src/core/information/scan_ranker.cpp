@@ -7,24 +7,6 @@
 
 namespace ccir_mapping::core::information {
 
-/// The best gain any chosen scan brings each voxel.
-class ScanRanker::Covered {
- public:
-  float best(const octomap::OcTreeKey& key) const {
-    const auto it = best_.find(key);
-    return it == best_.end() ? 0.0F : it->second;
-  }
-  void add(const std::vector<VoxelGain>& gains) {
-    for (const auto& [key, gain] : gains) {
-      float& best = best_[key];
-      best = std::max(best, gain);
-    }
-  }
-
- private:
-  std::unordered_map<octomap::OcTreeKey, float, octomap::OcTreeKey::KeyHash> best_;
-};
-
 std::vector<VoxelGain> coarsened(const std::vector<VoxelGain>& gains, int levels) {
   std::unordered_map<octomap::OcTreeKey, float, octomap::OcTreeKey::KeyHash> blocks;
   for (const auto& [key, gain] : gains) {
@@ -41,24 +23,37 @@ std::vector<VoxelGain> coarsened(const std::vector<VoxelGain>& gains, int levels
   return result;
 }
 
-ScanRanker::ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus)
-    : gains_(std::move(gains)), bonus_(std::move(bonus)) {
+ScanRanker::ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus,
+                       const Coverage* held)
+    : owned_(std::move(gains)), bonus_(std::move(bonus)), held_(held) {
+  for (const auto& g : owned_) gains_.push_back(&g);
+  init();
+}
+
+ScanRanker::ScanRanker(std::vector<const std::vector<VoxelGain>*> gains, std::vector<double> bonus,
+                       const Coverage* held)
+    : gains_(std::move(gains)), bonus_(std::move(bonus)), held_(held) {
+  init();
+}
+
+void ScanRanker::init() {
   if (bonus_.empty()) bonus_.assign(gains_.size(), 0.0);
   if (bonus_.size() != gains_.size()) {
     throw std::invalid_argument("ScanRanker: one bonus per scan, or none");
   }
-  // The same sums marginalGain() makes with nothing covered (g - 0 == g), so rankings agree.
-  for (std::size_t i = 0; i < gains_.size(); ++i) {
-    double gain = bonus_[i];
-    for (const auto& voxel : gains_[i]) gain += std::max(0.0F, voxel.second);
-    alone_.push_back(gain);
-  }
+  // The same sums marginalGain() makes with nothing chosen yet, so rankings agree.
+  const Coverage none;
+  const Coverage& held = held_ ? *held_ : none;
+  for (std::size_t i = 0; i < gains_.size(); ++i) alone_.push_back(bonus_[i] + held.marginal(*gains_[i]));
 }
 
-double ScanRanker::marginalGain(std::size_t scan, const Covered& covered) const {
+double ScanRanker::marginalGain(std::size_t scan, const Coverage& covered) const {
   ++evaluations_;
   double gain = bonus_[scan];
-  for (const auto& [key, g] : gains_[scan]) gain += std::max(0.0F, g - covered.best(key));
+  for (const auto& [key, g] : *gains_[scan]) {
+    const float best = std::max(covered.best(key), held_ ? held_->best(key) : 0.0F);
+    gain += std::max(0.0F, g - best);
+  }
   return gain;
 }
 
@@ -66,7 +61,7 @@ std::vector<RankedScan> ScanRanker::rankNaive(std::size_t n) const {
   evaluations_ = 0;
   std::vector<RankedScan> ranked;
   std::vector<bool> chosen(gains_.size(), false);
-  Covered covered;
+  Coverage covered;
   while (ranked.size() < std::min(n, gains_.size())) {
     RankedScan best{gains_.size(), -1.0};
     for (std::size_t i = 0; i < gains_.size(); ++i) {
@@ -75,7 +70,7 @@ std::vector<RankedScan> ScanRanker::rankNaive(std::size_t n) const {
       if (best.index == gains_.size() || gain > best.gain) best = {i, gain};
     }
     chosen[best.index] = true;
-    covered.add(gains_[best.index]);
+    covered.add(*gains_[best.index]);
     ranked.push_back(best);
   }
   return ranked;
@@ -93,7 +88,7 @@ std::vector<RankedScan> ScanRanker::rankLazy(std::size_t n) const {
     return a.gain < b.gain || (a.gain == b.gain && a.index > b.index);
   };
   std::priority_queue<Entry, std::vector<Entry>, decltype(worse)> queue(worse);
-  Covered covered;
+  Coverage covered;
   for (std::size_t i = 0; i < gains_.size(); ++i) queue.push({alone_[i], i, 0});
   std::vector<RankedScan> ranked;
   while (ranked.size() < n && !queue.empty()) {
@@ -102,7 +97,7 @@ std::vector<RankedScan> ScanRanker::rankLazy(std::size_t n) const {
     if (top.round == ranked.size()) {
       // Fresh: every other gain is at most its stale value (submodularity), which is below.
       ranked.push_back({top.index, top.gain});
-      covered.add(gains_[top.index]);
+      covered.add(*gains_[top.index]);
       continue;
     }
     queue.push({marginalGain(top.index, covered), top.index, ranked.size()});

@@ -15,6 +15,7 @@
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/information/csqmi.h"
 #include "ccir_mapping/core/information/flat_key_set.h"
+#include "ccir_mapping/core/information/map_information.h"
 #include "ccir_mapping/core/information/mapper_params.h"
 
 namespace ccir_mapping::core::information {
@@ -35,10 +36,7 @@ struct ScanUpdate {
   int dropped_points = 0;
 };
 
-/// A voxel and the entropy (bits) one scan removes from it.
-using VoxelGain = std::pair<octomap::OcTreeKey, float>;
-
-class OccupancyMap {
+class OccupancyMap final : public MapInformation {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit OccupancyMap(const MapperParams& params);
@@ -63,6 +61,9 @@ class OccupancyMap {
   double entropyReduction(const ScanUpdate& update) const;
   /// The voxels whose entropy the update lowers, with the drop.
   std::vector<VoxelGain> voxelGains(const ScanUpdate& update) const;
+  /// voxelGains(computeUpdate(sensor_points, map_from_sensor)).
+  std::vector<VoxelGain> scanGains(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                                   const Pose3& map_from_sensor) const override;
 
   /// Sum of voxel entropies in the box, in bits; an unknown voxel has 1 bit. Walks the box.
   double entropyBits(const Box& box) const;
@@ -83,7 +84,7 @@ class OccupancyMap {
                    const Eigen::Vector3d& origin) const;
   /// Mutual information of a simulated VLP-16 measurement at `sensor_pose` (map frame): 16
   /// rings from -15 to +15 degrees, a beam every simulated_azimuth_step_deg.
-  double simulatedCsqmi(const Pose3& sensor_pose) const;
+  double simulatedCsqmi(const Pose3& sensor_pose) const override;
   /// The cells one beam crosses (for beamsCsqmi and tests).
   BeamCells beamCells(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
 

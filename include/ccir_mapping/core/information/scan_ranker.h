@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "ccir_mapping/core/information/coverage.h"
 #include "ccir_mapping/core/information/occupancy_map.h"
 
 namespace ccir_mapping::core::information {
@@ -31,8 +32,13 @@ std::vector<VoxelGain> coarsened(const std::vector<VoxelGain>& gains, int levels
 
 class ScanRanker {
  public:
-  /// `gains[i]`: scan i's voxel gains; `bonus` empty or one per scan.
-  ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus = {});
+  /// `gains[i]`: scan i's voxel gains; `bonus` empty or one per scan; `held`: what the
+  /// receiver already has (counted as chosen before the first pick; must outlive the ranker).
+  ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus = {},
+             const Coverage* held = nullptr);
+  /// The same over gains the caller keeps (they must outlive the ranker): no copy.
+  ScanRanker(std::vector<const std::vector<VoxelGain>*> gains, std::vector<double> bonus,
+             const Coverage* held);
 
   /// The best `n` scans in the order chosen; ties go to the lower index. O(n L C).
   std::vector<RankedScan> rankNaive(std::size_t n) const;
@@ -42,11 +48,14 @@ class ScanRanker {
   std::size_t evaluations() const { return evaluations_; }
 
  private:
-  class Covered;
-  double marginalGain(std::size_t scan, const Covered& covered) const;
+  double marginalGain(std::size_t scan, const Coverage& covered) const;
 
-  std::vector<std::vector<VoxelGain>> gains_;
+  void init();
+
+  std::vector<std::vector<VoxelGain>> owned_;
+  std::vector<const std::vector<VoxelGain>*> gains_;
   std::vector<double> bonus_;
+  const Coverage* held_ = nullptr;
   /// What each scan is worth alone (its first marginal gain, without the lookups).
   std::vector<double> alone_;
   mutable std::size_t evaluations_ = 0;

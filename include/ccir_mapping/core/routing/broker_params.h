@@ -8,9 +8,10 @@
 
 namespace ccir_mapping::core::routing {
 
-/// CCIR offer/request routing, or the thesis baseline that sends every n-th keyframe.
-enum class RoutingMode { kCcir, kFixedRate };
-constexpr std::string_view kRoutingModeChoices = "ccir | fixed_rate";
+/// CCIR offer/request routing; the thesis baseline that sends every n-th keyframe; or every
+/// keyframe (the upper bound on what sharing can give).
+enum class RoutingMode { kCcir, kFixedRate, kAll };
+constexpr std::string_view kRoutingModeChoices = "ccir | fixed_rate | all";
 std::optional<RoutingMode> parseRoutingMode(std::string_view text);
 const char* toString(RoutingMode mode);
 
@@ -21,10 +22,16 @@ struct BrokerParams {
   double loop_closure_weight = 0.5;
   /// k: factor on map information while the transform to a peer is unknown.
   double unknown_transform_factor = 0.1;
-  /// Bytes per second this robot may send to each peer; sizes the offers (N).
-  double budget_bytes_per_s = 150000.0;
-  /// Offers are made, and received offers answered, at this period.
+  /// Offers are made, and received offers answered, at this period. Offers and requests are
+  /// sized from the bridge's budgets and queues (LinkStats): there is no budget of its own.
   double offer_period_s = 1.0;
+  /// Own keyframes kept for teammates to request (in their wire form, ~50-100 KB each); the
+  /// oldest go first, and a request for one of them is refused ("evicted").
+  int max_kept_scans = 1000;
+  /// A scan sent and not acknowledged for this long is taken as lost: it may be offered again.
+  double receipt_timeout_s = 60.0;
+  /// Most scans an offer from a teammate may hold (a longer one is refused).
+  int max_offer_scans = 100;
   /// fixed_rate mode: send every n-th keyframe.
   int fixed_rate_every_n = 5;
   /// Period of BrokerStats.

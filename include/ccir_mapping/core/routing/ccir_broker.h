@@ -1,0 +1,143 @@
+// CCIR (thesis section 3.2): which of its keyframes a robot offers each teammate, which offered
+// scans it requests, what it sends and what it acknowledges. Every robot plays both roles:
+//
+// Provider, per teammate i: a belief of what i holds (scans sent to it, and those it
+// acknowledged) as the Coverage of their footprints; each period an offer of at most
+// N = link capacity / average scan size of its kept keyframes, ranked greedily by
+// U = lambda F + (1 - lambda) I (Eq. 3.4), where F = c_k u_k / eta (c_k: shared words with i's
+// keyframes, u_k: the keyframe's pose uncertainty, both normalised by their largest product
+// eta; u_k counts as equal for all while the transform to i is unknown, since before that every
+// keyframe could be the one that finds it) and I = the entropy the scan's footprint adds to the
+// belief, normalised by the largest, times unknown_transform_factor while the transform is
+// unknown. Each pick enters the belief before the next (ScanRanker), so two scans of one place
+// are not both offered for their map information. Scans i holds are never offered.
+//
+// Requester: the offers of a period, scored by S = lambda c_k / c_max + (1 - lambda) I' with I'
+// the CSQMI of a simulated sensor at the offered pose in the own map (through the team
+// transform; unknown_transform_factor while unknown), normalised by the largest; the best are
+// requested within what the links carry in one period. (The requester's own pose uncertainty
+// is the same for every scan offered in a period, so in this normalised score it cannot change
+// the choice; it is not used.)
+//
+// Footprints are a keyframe's voxel gains on an empty map summed over coarse blocks, computed
+// once when the keyframe is made (MapInformation::scanGains and coarsened()).
+#pragma once
+
+#include <deque>
+#include <functional>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/information/coverage.h"
+#include "ccir_mapping/core/routing/broker_params.h"
+#include "ccir_mapping/core/routing/fixed_rate_selector.h"
+#include "ccir_mapping/core/routing/routing_messages.h"
+
+namespace ccir_mapping::core::routing {
+
+class CcirBroker {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors, a peer is this robot,
+  /// or a peer is named twice.
+  CcirBroker(std::string self, std::vector<std::string> peers, const BrokerParams& params);
+
+  /// A new own keyframe: its sensor pose in the map frame, its size on the wire and its
+  /// footprint. Returns the ids no longer kept (the oldest beyond max_kept_scans).
+  std::vector<KeyframeId> addKeyframe(KeyframeId id, const Pose3& map_pose,
+                                      std::size_t size_bytes,
+                                      std::vector<information::VoxelGain> footprint);
+  /// fixed_rate and all: the peers a new keyframe goes to now (counted as sent); none in ccir.
+  std::vector<std::string> directPeers(KeyframeId id);
+
+  /// Optimised poses of kept keyframes (the offers carry them).
+  void setPose(KeyframeId id, const Pose3& map_pose);
+  /// Pose uncertainty u_k (a variance, m^2) of own keyframes from the pose graph.
+  void setUncertainty(KeyframeId id, double variance_m2);
+  /// c_k of own keyframe `id` with a keyframe of `peer`; the largest seen is kept.
+  void setCorrespondences(const std::string& peer, KeyframeId id, int count);
+  void setTransformKnown(const std::string& peer, bool known);
+  void setLink(const std::string& peer, const LinkState& link);
+
+  /// The offer to `peer` for this period, or nullopt (nothing to offer, link down or busy).
+  std::optional<Offer> makeOffer(const std::string& peer, double now_s);
+
+  struct RequestOutcome {
+    /// Own keyframe ids to send to the requester, in its order.
+    std::vector<KeyframeId> send;
+    /// Why the request or some of its ids were refused (empty when none was).
+    std::map<std::string, int> refused;
+  };
+  /// A teammate's request: the ids to send, counted as sent.
+  RequestOutcome onRequest(const Request& request, double now_s);
+  /// A teammate acknowledges scans; false (counted) when it names this robot wrongly.
+  bool onReceipt(const Receipt& receipt);
+
+  /// An offer from a teammate, kept until chooseRequests(); false with the reason (counted)
+  /// when it is not for this robot, from a stranger or longer than max_offer_scans.
+  bool onOffer(const Offer& offer, std::string* reason = nullptr);
+  /// The information (CSQMI) of an offered scan for this robot; asked only for providers whose
+  /// transform is known.
+  using OfferScorer = std::function<double(const std::string& provider, const OfferEntry& scan)>;
+  /// Requests for the offers received since the last call.
+  std::vector<Request> chooseRequests(const OfferScorer& information);
+  /// A scan from a teammate; false for one received before (a duplicate, not acknowledged
+  /// again) or from a stranger.
+  bool onScanReceived(const std::string& provider, KeyframeId id, std::size_t size_bytes);
+  /// ccir: the acknowledgements due (one per provider with new scans); none in other modes.
+  std::vector<Receipt> takeReceipts();
+
+  void addControlBytes(const std::string& peer, std::size_t bytes);
+  /// The runtime-reconfigurable weights and fixed-rate n (mode and sizes stay).
+  void setParams(const BrokerParams& params);
+  const BrokerParams& params() const { return params_; }
+  const std::map<std::string, PeerCounters>& counters() const { return counters_; }
+  std::size_t keptScans() const { return kept_.size(); }
+
+ private:
+  struct Kept {
+    Pose3 pose;
+    std::size_t size_bytes = 0;
+    std::vector<information::VoxelGain> footprint;
+    double variance_m2 = -1.0;  // < 0: not known yet
+  };
+  struct Peer {
+    LinkState link;
+    bool link_known = false;
+    /// Bytes sent since the link state was last reported (not in its queue count yet).
+    std::size_t unreported_bytes = 0;
+    bool transform_known = false;
+    std::map<KeyframeId, int> correspondences;
+    /// Sent (with the time) and not acknowledged yet; acknowledged.
+    std::map<KeyframeId, double> unacknowledged;
+    std::set<KeyframeId> acknowledged;
+    information::Coverage belief;
+    std::uint32_t offer_sequence = 0;
+    /// Ids of the recent offers, by sequence.
+    std::deque<std::pair<std::uint32_t, std::set<KeyframeId>>> recent_offers;
+    // Requester side.
+    std::optional<Offer> pending_offer;
+    std::set<KeyframeId> received;
+    std::vector<KeyframeId> to_acknowledge;
+  };
+
+  bool holds(const Peer& peer, KeyframeId id) const;
+  void markSent(const std::string& name, Peer& peer, KeyframeId id, double now_s);
+  /// Scans sent too long ago without a receipt are taken as lost; the belief is rebuilt.
+  void expireUnacknowledged(Peer& peer, double now_s);
+  /// What one period on the link to `peer` carries, bytes (<= 0: nothing more fits).
+  double periodCapacity(const Peer& peer) const;
+  Peer* find(const std::string& name);
+  void refuse(const std::string& peer, const std::string& reason, std::uint64_t n = 1);
+
+  std::string self_;
+  BrokerParams params_;
+  std::map<std::string, Peer> peers_;
+  std::map<std::string, PeerCounters> counters_;
+  std::map<KeyframeId, Kept> kept_;
+  FixedRateSelector fixed_rate_;
+};
+
+}  // namespace ccir_mapping::core::routing

@@ -1,0 +1,425 @@
+#include "ccir_mapping/core/routing/ccir_broker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "ccir_mapping/core/information/scan_ranker.h"
+
+namespace ccir_mapping::core::routing {
+
+namespace {
+
+/// Offers a provider remembers, so a request that crossed a newer offer is still served.
+constexpr std::size_t kRecentOffers = 4;
+/// Below this a utility or score counts as nothing worth the link.
+constexpr double kNegligible = 1e-9;
+
+}  // namespace
+
+CcirBroker::CcirBroker(std::string self, std::vector<std::string> peers,
+                       const BrokerParams& params)
+    : self_(std::move(self)), params_(params), fixed_rate_(params.fixed_rate_every_n) {
+  const auto errors = params.validate();
+  if (!errors.empty()) throw std::invalid_argument("CcirBroker: " + errors.front());
+  for (const auto& name : peers) {
+    if (name == self_ || name.empty() || peers_.count(name)) {
+      throw std::invalid_argument("CcirBroker: peer '" + name + "' is this robot or named twice");
+    }
+    peers_[name];
+    counters_[name];
+  }
+}
+
+CcirBroker::Peer* CcirBroker::find(const std::string& name) {
+  const auto it = peers_.find(name);
+  return it == peers_.end() ? nullptr : &it->second;
+}
+
+void CcirBroker::refuse(const std::string& peer, const std::string& reason, std::uint64_t n) {
+  // Strangers are counted under "".
+  counters_[peers_.count(peer) ? peer : std::string()].refused[reason] += n;
+}
+
+std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, const Pose3& map_pose,
+                                                std::size_t size_bytes,
+                                                std::vector<information::VoxelGain> footprint) {
+  Kept& kept = kept_[id];
+  kept.pose = map_pose;
+  kept.size_bytes = size_bytes;
+  kept.footprint = std::move(footprint);
+  std::vector<KeyframeId> evicted;
+  while (kept_.size() > static_cast<std::size_t>(params_.max_kept_scans)) {
+    evicted.push_back(kept_.begin()->first);
+    kept_.erase(kept_.begin());
+  }
+  return evicted;
+}
+
+std::vector<std::string> CcirBroker::directPeers(KeyframeId id) {
+  const bool send = params_.mode == RoutingMode::kAll ||
+                    (params_.mode == RoutingMode::kFixedRate && fixed_rate_.select());
+  std::vector<std::string> to;
+  if (!send || !kept_.count(id)) return to;
+  for (auto& [name, peer] : peers_) {
+    markSent(name, peer, id, 0.0);
+    to.push_back(name);
+  }
+  return to;
+}
+
+void CcirBroker::setPose(KeyframeId id, const Pose3& map_pose) {
+  if (const auto it = kept_.find(id); it != kept_.end()) it->second.pose = map_pose;
+}
+
+void CcirBroker::setUncertainty(KeyframeId id, double variance_m2) {
+  if (const auto it = kept_.find(id); it != kept_.end() && std::isfinite(variance_m2)) {
+    it->second.variance_m2 = std::max(0.0, variance_m2);
+  }
+}
+
+void CcirBroker::setCorrespondences(const std::string& name, KeyframeId id, int count) {
+  if (Peer* peer = find(name)) {
+    int& c = peer->correspondences[id];
+    c = std::max(c, count);
+  }
+}
+
+void CcirBroker::setTransformKnown(const std::string& name, bool known) {
+  if (Peer* peer = find(name)) peer->transform_known = known;
+}
+
+void CcirBroker::setLink(const std::string& name, const LinkState& link) {
+  if (Peer* peer = find(name)) {
+    peer->link = link;
+    peer->link_known = true;
+    peer->unreported_bytes = 0;
+  }
+}
+
+bool CcirBroker::holds(const Peer& peer, KeyframeId id) const {
+  return peer.unacknowledged.count(id) || peer.acknowledged.count(id);
+}
+
+void CcirBroker::markSent(const std::string& name, Peer& peer, KeyframeId id, double now_s) {
+  const Kept& kept = kept_.at(id);
+  peer.unacknowledged[id] = now_s;
+  peer.belief.add(kept.footprint);
+  peer.unreported_bytes += kept.size_bytes;
+  PeerCounters& c = counters_[name];
+  ++c.scans_sent;
+  c.scan_bytes_sent += kept.size_bytes;
+}
+
+void CcirBroker::expireUnacknowledged(Peer& peer, double now_s) {
+  bool lost = false;
+  for (auto it = peer.unacknowledged.begin(); it != peer.unacknowledged.end();) {
+    if (now_s - it->second > params_.receipt_timeout_s) {
+      it = peer.unacknowledged.erase(it);
+      lost = true;
+    } else {
+      ++it;
+    }
+  }
+  if (!lost) return;
+  peer.belief.clear();
+  for (const auto& [id, kept] : kept_) {
+    if (holds(peer, id)) peer.belief.add(kept.footprint);
+  }
+}
+
+double CcirBroker::periodCapacity(const Peer& peer) const {
+  if (!peer.link_known || !peer.link.connected) return 0.0;
+  const double rate = std::min(peer.link.budget_bytes_per_s,
+                               peer.link.total_budget_bytes_per_s / double(peers_.size()));
+  return rate * params_.offer_period_s - double(peer.link.queued_bulk_bytes) -
+         double(peer.unreported_bytes);
+}
+
+std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s) {
+  Peer* peer = find(name);
+  if (!peer || params_.mode != RoutingMode::kCcir || kept_.empty()) return std::nullopt;
+  const std::size_t before = peer->unacknowledged.size();
+  expireUnacknowledged(*peer, now_s);
+  if (peer->unacknowledged.size() < before) {
+    refuse(name, "unacknowledged", before - peer->unacknowledged.size());
+  }
+  const double capacity = periodCapacity(*peer);
+  if (capacity <= 0.0) return std::nullopt;
+
+  std::vector<KeyframeId> ids;
+  std::vector<const Kept*> candidates;
+  double total_bytes = 0.0;
+  double max_variance = 0.0;
+  for (const auto& [id, kept] : kept_) {
+    total_bytes += double(kept.size_bytes);
+    max_variance = std::max(max_variance, kept.variance_m2);
+    if (holds(*peer, id)) continue;
+    ids.push_back(id);
+    candidates.push_back(&kept);
+  }
+  if (ids.empty()) return std::nullopt;
+  const double average_bytes = std::max(1.0, total_bytes / double(kept_.size()));
+  const auto n = static_cast<std::size_t>(std::max(1.0, std::floor(capacity / average_bytes)));
+
+  // F = c_k u_k / eta. A keyframe whose uncertainty is not known yet counts as the most
+  // uncertain (it is the newest).
+  std::vector<double> f(ids.size(), 0.0);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const auto c = peer->correspondences.find(ids[i]);
+    if (c == peer->correspondences.end()) continue;
+    double u = 1.0;
+    if (peer->transform_known && max_variance > 0.0) {
+      u = candidates[i]->variance_m2 < 0.0 ? 1.0 : candidates[i]->variance_m2 / max_variance;
+    }
+    f[i] = double(c->second) * u;
+  }
+  const double eta = *std::max_element(f.begin(), f.end());
+  for (double& v : f) v = eta > 0.0 ? v / eta : 0.0;
+
+  const double lambda = params_.loop_closure_weight;
+  const double k = peer->transform_known ? 1.0 : params_.unknown_transform_factor;
+  double eta_i = 0.0;
+  if (lambda < 1.0) {
+    for (const Kept* kept : candidates) eta_i = std::max(eta_i, peer->belief.marginal(kept->footprint));
+  }
+  std::vector<std::pair<std::size_t, double>> chosen;  // (candidate, U)
+  if (eta_i <= 0.0) {
+    // Map information adds nothing: rank by F alone (the lower id first on ties).
+    std::vector<std::size_t> order(ids.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return f[a] > f[b]; });
+    for (std::size_t i = 0; i < std::min(n, order.size()); ++i) {
+      chosen.emplace_back(order[i], lambda * f[order[i]]);
+    }
+  } else {
+    // U scaled by eta_i / ((1 - lambda) k) is the ranker's objective: raw entropy drop plus a
+    // bonus; the scale does not change the greedy order.
+    const double scale = (1.0 - lambda) * k / eta_i;
+    std::vector<const std::vector<information::VoxelGain>*> gains;
+    std::vector<double> bonus;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      gains.push_back(&candidates[i]->footprint);
+      bonus.push_back(lambda * f[i] / scale);
+    }
+    const information::ScanRanker ranker(std::move(gains), std::move(bonus), &peer->belief);
+    for (const auto& r : ranker.rankLazy(n)) chosen.emplace_back(r.index, r.gain * scale);
+  }
+
+  Offer offer;
+  offer.provider = self_;
+  offer.requester = name;
+  offer.sequence = ++peer->offer_sequence;
+  std::set<KeyframeId> offered;
+  for (const auto& [i, utility] : chosen) {
+    if (utility <= kNegligible) continue;  // nothing the teammate would gain
+    OfferEntry entry;
+    entry.id = ids[i];
+    entry.pose = candidates[i]->pose;
+    const auto c = peer->correspondences.find(ids[i]);
+    entry.correspondences = c == peer->correspondences.end() ? 0 : c->second;
+    entry.size_bytes = candidates[i]->size_bytes;
+    entry.utility = utility;
+    offer.scans.push_back(entry);
+    offered.insert(entry.id);
+  }
+  if (offer.scans.empty()) {
+    --peer->offer_sequence;
+    return std::nullopt;
+  }
+  peer->recent_offers.emplace_back(offer.sequence, std::move(offered));
+  if (peer->recent_offers.size() > kRecentOffers) peer->recent_offers.pop_front();
+  PeerCounters& c = counters_[name];
+  ++c.offers_sent;
+  c.scans_offered += offer.scans.size();
+  return offer;
+}
+
+CcirBroker::RequestOutcome CcirBroker::onRequest(const Request& request, double now_s) {
+  RequestOutcome outcome;
+  Peer* peer = find(request.requester);
+  const auto refuseAll = [&](const std::string& reason) {
+    refuse(request.requester, reason);
+    outcome.refused[reason] = static_cast<int>(request.ids.size());
+    return outcome;
+  };
+  if (!peer) return refuseAll("unknown_robot");
+  if (request.provider != self_) return refuseAll("not_for_this_robot");
+  PeerCounters& c = counters_[request.requester];
+  ++c.requests_received;
+  c.scans_requested_by_peer += request.ids.size();
+  const auto offer = std::find_if(peer->recent_offers.begin(), peer->recent_offers.end(),
+                                  [&](const auto& o) { return o.first == request.offer_sequence; });
+  if (offer == peer->recent_offers.end()) return refuseAll("stale_offer");
+  if (request.ids.size() > offer->second.size()) return refuseAll("oversized");
+  for (const KeyframeId id : request.ids) {
+    const char* reason = nullptr;
+    if (!offer->second.count(id)) {
+      reason = "not_offered";
+    } else if (holds(*peer, id)) {
+      reason = "already_sent";
+    } else if (!kept_.count(id)) {
+      reason = "evicted";
+    }
+    if (reason) {
+      ++outcome.refused[reason];
+      refuse(request.requester, reason);
+      continue;
+    }
+    markSent(request.requester, *peer, id, now_s);
+    outcome.send.push_back(id);
+  }
+  return outcome;
+}
+
+bool CcirBroker::onReceipt(const Receipt& receipt) {
+  Peer* peer = find(receipt.receiver);
+  if (!peer || receipt.provider != self_) {
+    refuse(receipt.receiver, peer ? "not_for_this_robot" : "unknown_robot");
+    return false;
+  }
+  ++counters_[receipt.receiver].receipts_received;
+  for (const KeyframeId id : receipt.ids) {
+    if (peer->unacknowledged.erase(id)) {
+      peer->acknowledged.insert(id);
+    } else if (!peer->acknowledged.count(id)) {
+      refuse(receipt.receiver, "receipt_for_unsent");
+    }
+  }
+  return true;
+}
+
+bool CcirBroker::onOffer(const Offer& offer, std::string* reason) {
+  Peer* peer = find(offer.provider);
+  std::string why;
+  if (!peer) {
+    why = "unknown_robot";
+  } else if (offer.requester != self_) {
+    why = "not_for_this_robot";
+  } else if (offer.scans.size() > static_cast<std::size_t>(params_.max_offer_scans)) {
+    why = "oversized";
+  }
+  if (!why.empty()) {
+    refuse(offer.provider, why);
+    if (reason) *reason = why;
+    return false;
+  }
+  PeerCounters& c = counters_[offer.provider];
+  ++c.offers_received;
+  c.scans_in_offers_received += offer.scans.size();
+  peer->pending_offer = offer;  // a newer offer supersedes one not answered yet
+  return true;
+}
+
+std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information) {
+  struct Scored {
+    std::string provider;
+    const OfferEntry* entry;
+    double csqmi;
+    double score;
+  };
+  std::vector<Scored> scored;
+  double c_max = 0.0, csqmi_max = 0.0;
+  for (auto& [name, peer] : peers_) {
+    if (!peer.pending_offer) continue;
+    for (const auto& entry : peer.pending_offer->scans) {
+      if (peer.received.count(entry.id)) continue;
+      const double csqmi = peer.transform_known ? std::max(0.0, information(name, entry)) : 0.0;
+      scored.push_back({name, &entry, csqmi, 0.0});
+      c_max = std::max(c_max, double(entry.correspondences));
+      csqmi_max = std::max(csqmi_max, csqmi);
+    }
+  }
+  const double lambda = params_.loop_closure_weight;
+  for (Scored& s : scored) {
+    const double f = c_max > 0.0 ? s.entry->correspondences / c_max : 0.0;
+    const double i = peers_.at(s.provider).transform_known
+                         ? (csqmi_max > 0.0 ? s.csqmi / csqmi_max : 0.0)
+                         : params_.unknown_transform_factor;
+    s.score = lambda * f + (1.0 - lambda) * i;
+  }
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
+
+  // What the links carry in one period: per provider its link's share, and the radio's total.
+  std::map<std::string, double> bytes;
+  double total = 0.0;
+  std::map<std::string, Request> requests;
+  for (const Scored& s : scored) {
+    if (s.score <= kNegligible) break;
+    const Peer& peer = peers_.at(s.provider);
+    const double link_rate =
+        peer.link_known ? std::min(peer.link.budget_bytes_per_s,
+                                   peer.link.total_budget_bytes_per_s / double(peers_.size()))
+                        : 0.0;
+    const double total_rate = peer.link_known ? peer.link.total_budget_bytes_per_s : 0.0;
+    const double size = double(s.entry->size_bytes);
+    double& mine = bytes[s.provider];
+    // One scan per provider and period always fits: a scan larger than a period's budget
+    // still goes, over several periods.
+    if (mine > 0.0 && mine + size > link_rate * params_.offer_period_s) continue;
+    if (total > 0.0 && total + size > total_rate * params_.offer_period_s) continue;
+    mine += size;
+    total += size;
+    Request& request = requests[s.provider];
+    request.requester = self_;
+    request.provider = s.provider;
+    request.offer_sequence = peer.pending_offer->sequence;
+    request.ids.push_back(s.entry->id);
+  }
+  std::vector<Request> result;
+  for (auto& [name, request] : requests) {
+    PeerCounters& c = counters_[name];
+    ++c.requests_sent;
+    c.scans_requested += request.ids.size();
+    result.push_back(std::move(request));
+  }
+  for (auto& [name, peer] : peers_) peer.pending_offer.reset();
+  return result;
+}
+
+bool CcirBroker::onScanReceived(const std::string& provider, KeyframeId id,
+                                std::size_t size_bytes) {
+  Peer* peer = find(provider);
+  if (!peer) {
+    refuse(provider, "unknown_robot");
+    return false;
+  }
+  if (!peer->received.insert(id).second) {
+    refuse(provider, "duplicate_scan");
+    return false;
+  }
+  PeerCounters& c = counters_[provider];
+  ++c.scans_received;
+  c.scan_bytes_received += size_bytes;
+  if (params_.mode == RoutingMode::kCcir) peer->to_acknowledge.push_back(id);
+  return true;
+}
+
+std::vector<Receipt> CcirBroker::takeReceipts() {
+  std::vector<Receipt> receipts;
+  for (auto& [name, peer] : peers_) {
+    if (peer.to_acknowledge.empty()) continue;
+    receipts.push_back({self_, name, std::move(peer.to_acknowledge)});
+    peer.to_acknowledge.clear();
+    ++counters_[name].receipts_sent;
+  }
+  return receipts;
+}
+
+void CcirBroker::addControlBytes(const std::string& peer, std::size_t bytes) {
+  counters_[peers_.count(peer) ? peer : std::string()].control_bytes_sent += bytes;
+}
+
+void CcirBroker::setParams(const BrokerParams& params) {
+  const auto errors = params.validate();
+  if (!errors.empty()) throw std::invalid_argument("CcirBroker: " + errors.front());
+  params_.loop_closure_weight = params.loop_closure_weight;
+  params_.unknown_transform_factor = params.unknown_transform_factor;
+  params_.fixed_rate_every_n = params.fixed_rate_every_n;
+  fixed_rate_.setEveryN(params.fixed_rate_every_n);
+}
+
+}  // namespace ccir_mapping::core::routing
