@@ -8,7 +8,6 @@
 #include <thread>
 #include <variant>
 
-#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Path.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -17,6 +16,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/KeyframeUncertainty.h"
 #include "ccir_mapping/LoopClosure.h"
 #include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/backend/team_graph.h"
@@ -59,13 +59,12 @@ class BackendNodelet final : public PipelineNodelet {
     ros::NodeHandle& nh = getNodeHandle();
     trajectory_pub_ = nh.advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     team_pub_ = nh.advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
-    uncertainty_pub_ =
-        nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_uncertainty", 1);
+    uncertainty_pub_ = nh.advertise<KeyframeUncertainty>(topics::kKeyframeUncertainty, 1);
     loop_marker_pub_ =
         nh.advertise<visualization_msgs::MarkerArray>(topics::kLoopClosureMarkers, 1);
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &BackendNodelet::onKeyframe, this);
-    peer_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
+    peer_sub_ = nh.subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize,
                              &BackendNodelet::onPeerKeyframe, this);
     loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize,
                              &BackendNodelet::onLoopClosure, this);
@@ -102,13 +101,13 @@ class BackendNodelet final : public PipelineNodelet {
   }
 
   void onPeerKeyframe(const Keyframe::ConstPtr& keyframe) {
-    count("in inbox/scans");
+    count("in teammate_scans");
     const auto pose = conversions::toPose(keyframe->odom_pose);
     if (!pose || keyframe->robot == settings_.frames.robot_name || keyframe->robot.empty()) {
       NODELET_WARN_THROTTLE(5.0, "dropping a teammate's keyframe from '%s': %s",
                             keyframe->robot.c_str(),
                             pose ? "not a teammate's" : "its pose is not finite");
-      count("dropped inbox/scans");
+      count("dropped teammate_scans");
       return;
     }
     queue(PeerKeyframe{keyframe->robot, keyframe->id, *pose}, false);
@@ -175,7 +174,7 @@ class BackendNodelet final : public PipelineNodelet {
       if (!graph_->addPeerKeyframe(peer->robot, peer->id, peer->pose)) {
         NODELET_WARN_THROTTLE(5.0, "teammate keyframe %s/%lu rejected by the graph",
                               peer->robot.c_str(), static_cast<unsigned long>(peer->id));
-        count("dropped inbox/scans");
+        count("dropped teammate_scans");
       }
     } else {
       // The callback checked pose, covariance and ownership; the graph also refuses a keyframe
@@ -287,14 +286,16 @@ class BackendNodelet final : public PipelineNodelet {
       last_tf_stamp_ = tf_stamp;
     }
 
-    if (uncertainty_pub_.getNumSubscribers() > 0) {
-      if (const auto covariance = graph_->covariances({snapshot.ids.back()})) {
-        auto msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+    if (uncertainty_pub_.getNumSubscribers() > 0) {  // the Broker's u_k (CCIR)
+      const auto variances =
+          measured("uncertainty", [&] { return graph_->positionVariances(snapshot.ids); });
+      if (variances) {
+        auto msg = boost::make_shared<KeyframeUncertainty>();
         msg->header = path->header;
-        msg->pose.pose = path->poses.back().pose;
-        for (int r = 0; r < 6; ++r) {
-          for (int c = 0; c < 6; ++c) msg->pose.covariance[r * 6 + c] = covariance->front()(r, c);
-        }
+        msg->robot = settings_.frames.robot_name;
+        msg->keyframe_ids.assign(snapshot.ids.begin(), snapshot.ids.end());
+        msg->position_variance_m2 = *variances;
+        count("out keyframe_uncertainty");
         uncertainty_pub_.publish(msg);
       }
     }

@@ -1,7 +1,7 @@
 // Mapper: own keyframes and teammates' scans -> the robot's occupancy map (OctoMap), which follows
 // the Backend's optimised poses by rebuilding (core/information/keyframe_map.h). Publishes the
 // occupied voxels while someone listens and the map's entropy and known volume; saves the map on
-// ~save_map and at shutdown; shares it in-process with the Broker (shared_map.h).
+// ~save_map and at shutdown; shares it in-process with the Broker (core/information/shared_map.h).
 #include <chrono>
 #include <cstdlib>
 #include <thread>
@@ -17,11 +17,11 @@
 #include "ccir_mapping/MapStats.h"
 #include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/information/keyframe_map.h"
+#include "ccir_mapping/core/information/shared_map.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
-#include "shared_map.h"
 
 namespace ccir_mapping {
 
@@ -37,8 +37,8 @@ class MapperNodelet final : public PipelineNodelet {
  private:
   void onInit() override {
     if (!loadSettings(settings_)) return;
-    map_ = std::make_shared<SharedMap>(std::make_unique<info::OccupancyMap>(settings_.core));
-    SharedMap::registerMap(settings_.frames.robot_name, map_);
+    map_ = std::make_shared<info::SharedMap>(std::make_unique<info::OccupancyMap>(settings_.core));
+    info::SharedMap::registerMap(settings_.frames.robot_name, map_);
     keyframes_ = std::make_unique<info::KeyframeMap>(settings_.core);
     map_path_ = settings_.map_path;
     if (map_path_.empty()) {
@@ -52,7 +52,7 @@ class MapperNodelet final : public PipelineNodelet {
     stats_pub_ = nh.advertise<MapStats>(topics::kMapStats, topics::kMessageQueueSize);
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &MapperNodelet::onKeyframe, this);
-    inbox_scans_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
+    teammate_scans_sub_ = nh.subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize,
                                     &MapperNodelet::onPeerScan, this);
     trajectory_sub_ = nh.subscribe(topics::kTrajectory, topics::kLatestOnlyQueueSize,
                                    &MapperNodelet::onTrajectory, this);
@@ -92,7 +92,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onPeerScan(const Keyframe::ConstPtr& keyframe) {
-    count("in inbox/scans", keyframe->cloud.data.size());
+    count("in teammate_scans", keyframe->cloud.data.size());
     if (keyframe->robot == settings_.frames.robot_name) return;
     const auto scan = scanOf(*keyframe, "teammate scan");
     if (!scan) return;
@@ -215,7 +215,7 @@ class MapperNodelet final : public PipelineNodelet {
 
   ros_params::MapperSettings settings_;
   std::string map_path_;
-  std::shared_ptr<SharedMap> map_;
+  std::shared_ptr<info::SharedMap> map_;
   /// Guards keyframes_, rebuilding_, placed_during_rebuild_ and rebuilds_.
   std::mutex mutex_;
   std::unique_ptr<info::KeyframeMap> keyframes_;
@@ -226,7 +226,7 @@ class MapperNodelet final : public PipelineNodelet {
   ros::Publisher cloud_pub_;
   ros::Publisher stats_pub_;
   ros::Subscriber keyframe_sub_;
-  ros::Subscriber inbox_scans_sub_;
+  ros::Subscriber teammate_scans_sub_;
   ros::Subscriber trajectory_sub_;
   ros::Subscriber team_sub_;
   ros::ServiceServer save_srv_;

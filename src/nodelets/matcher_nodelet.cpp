@@ -50,8 +50,8 @@ class MatcherNodelet final : public PipelineNodelet {
                                  &MatcherNodelet::onKeyframe, this);
     inbox_features_sub_ = nh.subscribe(topics::kInboxFeatures, topics::kMessageQueueSize,
                                        &MatcherNodelet::onPeerFeatures, this);
-    inbox_scans_sub_ = nh.subscribe(topics::kInboxScans, topics::kKeyframeQueueSize,
-                                    &MatcherNodelet::onPeerScan, this);
+    teammate_scans_sub_ = nh.subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize,
+                                       &MatcherNodelet::onPeerScan, this);
   }
 
   const std::string& vocabularyHash() const { return matcher_->model().vocabulary.hash(); }
@@ -125,6 +125,18 @@ class MatcherNodelet final : public PipelineNodelet {
         static_cast<std::uint32_t>(described->scan.features.descriptors.size());
     count("out features");
     features_pub_.publish(features);
+    // c_k of this keyframe with the teammates' keyframes whose word sets came before it.
+    for (const auto& c : matcher_->teammateCorrespondences(described->words)) {
+      auto reply = boost::make_shared<Correspondences>();
+      reply->header.stamp = keyframe->header.stamp;
+      reply->robot = settings_.frames.robot_name;
+      reply->peer = c.robot;
+      reply->peer_keyframe_id = c.keyframe;
+      reply->keyframe_ids = {keyframe->id};
+      reply->counts = {static_cast<std::uint32_t>(c.count)};
+      count("out correspondences");
+      correspondences_pub_.publish(reply);
+    }
     // Teammates' scans kept so far may show this place too (they came before this robot did).
     const std::string& self = settings_.frames.robot_name;
     publishBest(measured("match", [&] { return matcher_->matchKeptScans(*described); }), self,
@@ -181,10 +193,11 @@ class MatcherNodelet final : public PipelineNodelet {
     }
     count("out correspondences");
     correspondences_pub_.publish(reply);
+    matcher_->keepTeammateWords(features->robot, features->keyframe_id, features->words);
   }
 
   void onPeerScan(const Keyframe::ConstPtr& scan) {
-    count("in inbox/scans", scan->cloud.data.size());
+    count("in teammate_scans", scan->cloud.data.size());
     if (!fromTeammate(scan->robot, "scans")) return;
     auto described = describe(*scan, "teammate");
     if (!described) return;
@@ -212,7 +225,7 @@ class MatcherNodelet final : public PipelineNodelet {
   ros::Publisher loop_pub_;
   ros::Subscriber keyframe_sub_;
   ros::Subscriber inbox_features_sub_;
-  ros::Subscriber inbox_scans_sub_;
+  ros::Subscriber teammate_scans_sub_;
 };
 
 }  // namespace ccir_mapping

@@ -249,4 +249,98 @@ std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_po
   return std::nullopt;
 }
 
+std::optional<std::string> toOffer(const ScanOffer& msg, core::routing::Offer* out) {
+  out->provider = msg.provider;
+  out->requester = msg.requester;
+  out->sequence = msg.sequence;
+  out->scans.clear();
+  for (const auto& scan : msg.scans) {
+    const auto pose = toPose(scan.pose);
+    if (!pose) return "the pose of offered keyframe " + std::to_string(scan.keyframe_id) + " is not valid";
+    core::routing::OfferEntry entry;
+    entry.id = scan.keyframe_id;
+    entry.pose = *pose;
+    entry.correspondences = static_cast<int>(scan.correspondences);
+    entry.size_bytes = scan.size_bytes;
+    entry.utility = scan.utility;
+    out->scans.push_back(entry);
+  }
+  return std::nullopt;
+}
+
+ScanOffer toOfferMsg(const core::routing::Offer& offer, const std::string& map_frame) {
+  ScanOffer msg;
+  msg.provider = offer.provider;
+  msg.requester = offer.requester;
+  msg.sequence = offer.sequence;
+  msg.map_frame = map_frame;
+  for (const auto& entry : offer.scans) {
+    OfferedScan scan;
+    scan.keyframe_id = entry.id;
+    scan.pose = toPoseMsg(entry.pose);
+    scan.correspondences = static_cast<std::uint32_t>(std::max(0, entry.correspondences));
+    scan.size_bytes = static_cast<std::uint32_t>(entry.size_bytes);
+    scan.utility = entry.utility;
+    msg.scans.push_back(scan);
+  }
+  return msg;
+}
+
+core::routing::Request toRequest(const ScanRequest& msg) {
+  return {msg.requester, msg.provider, msg.offer_sequence,
+          std::vector<core::KeyframeId>(msg.keyframe_ids.begin(), msg.keyframe_ids.end())};
+}
+
+ScanRequest toRequestMsg(const core::routing::Request& request) {
+  ScanRequest msg;
+  msg.requester = request.requester;
+  msg.provider = request.provider;
+  msg.offer_sequence = request.offer_sequence;
+  msg.keyframe_ids.assign(request.ids.begin(), request.ids.end());
+  return msg;
+}
+
+core::routing::Receipt toReceipt(const ScanReceipt& msg) {
+  return {msg.receiver, msg.provider,
+          std::vector<core::KeyframeId>(msg.keyframe_ids.begin(), msg.keyframe_ids.end())};
+}
+
+ScanReceipt toReceiptMsg(const core::routing::Receipt& receipt) {
+  ScanReceipt msg;
+  msg.receiver = receipt.receiver;
+  msg.provider = receipt.provider;
+  msg.keyframe_ids.assign(receipt.ids.begin(), receipt.ids.end());
+  return msg;
+}
+
+core::routing::LinkState toLinkState(const LinkStats& msg) {
+  return {msg.connected, msg.budget_bytes_per_s, msg.total_budget_bytes_per_s,
+          static_cast<std::size_t>(msg.queued_bulk_bytes)};
+}
+
+PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerCounters& c) {
+  PeerRouting msg;
+  msg.peer = peer;
+  msg.offers_sent = c.offers_sent;
+  msg.scans_offered = c.scans_offered;
+  msg.offers_received = c.offers_received;
+  msg.scans_in_offers_received = c.scans_in_offers_received;
+  msg.requests_sent = c.requests_sent;
+  msg.scans_requested = c.scans_requested;
+  msg.requests_received = c.requests_received;
+  msg.scans_requested_by_peer = c.scans_requested_by_peer;
+  msg.scans_sent = c.scans_sent;
+  msg.scan_bytes_sent = c.scan_bytes_sent;
+  msg.scans_received = c.scans_received;
+  msg.scan_bytes_received = c.scan_bytes_received;
+  msg.receipts_sent = c.receipts_sent;
+  msg.receipts_received = c.receipts_received;
+  msg.control_bytes_sent = c.control_bytes_sent;
+  for (const auto& [reason, count] : c.refused) {
+    msg.refused_reasons.push_back(reason);
+    msg.refused_counts.push_back(count);
+  }
+  return msg;
+}
+
 }  // namespace ccir_mapping::conversions

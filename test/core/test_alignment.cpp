@@ -180,5 +180,44 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
   }
 }
 
+TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {
+  // 30 keyframes 1 m apart around a 10 m x 5 m rectangle; then a loop from the last to the
+  // first.
+  TeamGraph graph("robot_a", BackendParams{});
+  std::vector<Pose3> poses;
+  for (int i = 0; i < 30; ++i) {
+    const double s = i % 30;
+    Eigen::Vector3d p = s < 10   ? Eigen::Vector3d(s, 0, 0)
+                        : s < 15 ? Eigen::Vector3d(10, s - 10, 0)
+                        : s < 25 ? Eigen::Vector3d(25 - s, 5, 0)
+                                 : Eigen::Vector3d(0, 30 - s, 0);
+    poses.push_back(Pose3(Eigen::Translation3d(p)));
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(i), poses.back()));
+  }
+  graph.optimize();
+  std::vector<KeyframeId> ids;
+  for (KeyframeId i = 0; i < 30; ++i) ids.push_back(i);
+  const auto open = graph.positionVariances(ids);
+  ASSERT_TRUE(open);
+  EXPECT_EQ((*open)[0], 0.0) << "the gauge keyframe";
+  // Farther along the path, more uncertain (not strictly at each corner, where heading error
+  // turns into the other axis).
+  for (std::size_t i = 4; i < 30; ++i) EXPECT_GT((*open)[i], (*open)[i - 3]) << i;
+
+  LoopClosureData loop;
+  loop.robot_from = loop.robot_to = "robot_a";
+  loop.keyframe_from = 29;
+  loop.keyframe_to = 0;
+  loop.relative = poses[29].inverse() * poses[0];
+  loop.covariance = alignment::Matrix6::Identity() * 1e-4;
+  ASSERT_TRUE(graph.addLoopClosure(loop));
+  graph.optimize();
+  const auto closed = graph.positionVariances(ids);
+  ASSERT_TRUE(closed);
+  EXPECT_LT((*closed)[29], 0.2 * (*open)[29]);
+  EXPECT_LT((*closed)[15], (*open)[15]);
+  EXPECT_FALSE(graph.positionVariances({99})) << "an unknown keyframe";
+}
+
 }  // namespace
 }  // namespace ccir_mapping::core::backend

@@ -46,7 +46,8 @@ std::vector<KeyframeId> ids(const Offer& offer) {
 struct Provider : ::testing::Test {
   CcirBroker a{"robot_a", {"robot_b"}, params()};
   void keyframe(KeyframeId id, std::vector<VoxelGain> footprint, std::size_t bytes = kScanBytes) {
-    a.addKeyframe(id, Pose3(Eigen::Translation3d(double(id), 0, 0)), bytes, std::move(footprint));
+    a.addKeyframe(id, Stamp(id), Pose3(Eigen::Translation3d(double(id), 0, 0)), bytes,
+                  std::move(footprint));
   }
 };
 
@@ -71,13 +72,30 @@ TEST_F(Provider, OfferHoldsAtMostWhatOnePeriodCarries) {
 TEST(ProviderWithTwoPeers, ThePeersShareTheRadiosTotalBudget) {
   CcirBroker a("robot_a", {"robot_b", "robot_c"}, params());
   for (KeyframeId id = 0; id < 10; ++id) {
-    a.addKeyframe(id, Pose3::Identity(), kScanBytes, blocks(int(id) * 10, 10));
+    a.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, blocks(int(id) * 10, 10));
   }
   // 150 KB/s per link, 150 KB/s in total: 75 KB a period each, one scan each.
   a.setLink("robot_b", {true, 150000.0, 150000.0, 0});
   a.setLink("robot_c", {true, 150000.0, 150000.0, 0});
   EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 1u);
   EXPECT_EQ(a.makeOffer("robot_c", 0.0)->scans.size(), 1u);
+}
+
+TEST_F(Provider, OffersCarryOptimisedPosesAndNewKeyframesTheNewestCorrection) {
+  keyframe(0, kPlaceA());  // odometry x = 0
+  keyframe(1, kPlaceB());  // odometry x = 1
+  // The Backend moved keyframe 1 by 0.5 m in y: keyframe 2 (odometry x = 2) lands there too.
+  const Pose3 corrected(Eigen::Translation3d(1.0, 0.5, 0.0));
+  a.setOptimizedPoses({{Stamp(0), Pose3::Identity()}, {Stamp(1), corrected}});
+  EXPECT_TRUE(a.placeOwn(Pose3(Eigen::Translation3d(2, 0, 0)))
+                  .isApprox(Pose3(Eigen::Translation3d(2, 0.5, 0))));
+  keyframe(2, kPlaceC());
+  a.setLink("robot_b", link());
+  const auto offer = a.makeOffer("robot_b", 0.0);
+  ASSERT_EQ(offer->scans.size(), 3u);
+  for (const auto& scan : offer->scans) {
+    EXPECT_NEAR(scan.pose.translation().y(), scan.id == 0 ? 0.0 : 0.5, 1e-12) << scan.id;
+  }
 }
 
 TEST_F(Provider, RequestedScansAreSentOnceAndNeverOfferedAgain) {
@@ -147,7 +165,7 @@ TEST_F(Provider, WithAnUnknownTransformHighCorrespondenceScansRankFirst) {
 
 TEST_F(Provider, PoseUncertaintyWeighsTheLoopClosureUtilityOnceTheTransformIsKnown) {
   CcirBroker b("robot_a", {"robot_b"}, params(1.0));  // lambda 1: F alone
-  for (KeyframeId id = 0; id < 3; ++id) b.addKeyframe(id, Pose3::Identity(), kScanBytes, kPlaceA());
+  for (KeyframeId id = 0; id < 3; ++id) b.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, kPlaceA());
   for (KeyframeId id = 0; id < 3; ++id) b.setCorrespondences("robot_b", id, 10);
   b.setUncertainty(0, 0.01);
   b.setUncertainty(1, 0.50);
@@ -162,7 +180,7 @@ TEST_F(Provider, LambdaZeroGivesTheGreedyInformationOrder) {
   std::vector<std::vector<VoxelGain>> gains = {blocks(0, 10), blocks(5, 10), blocks(12, 4),
                                                blocks(30, 6, 0.5F), blocks(2, 3, 2.0F)};
   for (KeyframeId id = 0; id < gains.size(); ++id) {
-    b.addKeyframe(id, Pose3::Identity(), kScanBytes, gains[id]);
+    b.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, gains[id]);
     b.setCorrespondences("robot_b", id, int(10 * id));  // ignored at lambda 0
   }
   b.setLink("robot_b", link(5 * 50000.0));
@@ -217,12 +235,12 @@ TEST_F(Provider, ARequestForAnEvictedScanIsRefused) {
     p.max_kept_scans = 2;
     return p;
   }());
-  b.addKeyframe(0, Pose3::Identity(), kScanBytes, kPlaceA());
-  b.addKeyframe(1, Pose3::Identity(), kScanBytes, kPlaceB());
+  b.addKeyframe(0, Stamp(0), Pose3::Identity(), kScanBytes, kPlaceA());
+  b.addKeyframe(1, Stamp(1), Pose3::Identity(), kScanBytes, kPlaceB());
   b.setLink("robot_b", link(50000.0));
   const auto offer = b.makeOffer("robot_b", 0.0);
   ASSERT_EQ(ids(*offer), (std::vector<KeyframeId>{0}));
-  EXPECT_EQ(b.addKeyframe(2, Pose3::Identity(), kScanBytes, kPlaceC()), (std::vector<KeyframeId>{0}));
+  EXPECT_EQ(b.addKeyframe(2, Stamp(2), Pose3::Identity(), kScanBytes, kPlaceC()), (std::vector<KeyframeId>{0}));
   EXPECT_EQ(b.keptScans(), 2u);
   const auto outcome = b.onRequest({"robot_b", "robot_a", offer->sequence, {0}}, 0.0);
   EXPECT_TRUE(outcome.send.empty());
@@ -249,8 +267,8 @@ TEST(FixedRateAndAll, SendDirectlyToEveryPeer) {
   CcirBroker fixed("robot_a", {"robot_b", "robot_c"}, p);
   std::vector<KeyframeId> sent;
   for (KeyframeId id = 0; id < 7; ++id) {
-    fixed.addKeyframe(id, Pose3::Identity(), kScanBytes, kPlaceA());
-    if (!fixed.directPeers(id).empty()) sent.push_back(id);
+    fixed.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, kPlaceA());
+    if (fixed.sendsToAll(id)) sent.push_back(id);
   }
   EXPECT_EQ(sent, (std::vector<KeyframeId>{0, 3, 6}));
   EXPECT_EQ(fixed.counters().at("robot_c").scans_sent, 3u);
@@ -260,13 +278,13 @@ TEST(FixedRateAndAll, SendDirectlyToEveryPeer) {
   p.mode = RoutingMode::kAll;
   CcirBroker all("robot_a", {"robot_b"}, p);
   for (KeyframeId id = 0; id < 4; ++id) {
-    all.addKeyframe(id, Pose3::Identity(), kScanBytes, kPlaceA());
-    EXPECT_EQ(all.directPeers(id), (std::vector<std::string>{"robot_b"}));
+    all.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, kPlaceA());
+    EXPECT_TRUE(all.sendsToAll(id));
   }
   p.mode = RoutingMode::kCcir;
   CcirBroker ccir("robot_a", {"robot_b"}, p);
-  ccir.addKeyframe(0, Pose3::Identity(), kScanBytes, kPlaceA());
-  EXPECT_TRUE(ccir.directPeers(0).empty());
+  ccir.addKeyframe(0, Stamp(0), Pose3::Identity(), kScanBytes, kPlaceA());
+  EXPECT_FALSE(ccir.sendsToAll(0));
 }
 
 /// Robot b requesting from a and c.
@@ -361,7 +379,7 @@ TEST(CcirScenario, TwoRobotsExchangeEachPlaceOnceUnderTheBudget) {
                                                     kPlaceC()};
   std::vector<KeyframeId> delivered;
   for (KeyframeId id = 0; id < 8; ++id) {
-    if (id < walk.size()) a.addKeyframe(id, Pose3::Identity(), kScanBytes, walk[id]);
+    if (id < walk.size()) a.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, walk[id]);
     a.setLink("robot_b", link(60000.0));  // one scan a period
     b.setLink("robot_a", link(60000.0));
     if (const auto offer = a.makeOffer("robot_b", double(id))) ASSERT_TRUE(b.onOffer(*offer));

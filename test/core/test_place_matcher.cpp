@@ -191,6 +191,26 @@ TEST_F(PlaceMatcherTest, CorrespondencesCountSharedWordsAboveTheMinimum) {
   EXPECT_TRUE(matcher.correspondences({}).empty());
 }
 
+TEST_F(PlaceMatcherTest, NewOwnKeyframesGetTheirCorrespondencesWithKeptTeammateWords) {
+  MatcherParams params;
+  params.min_correspondences = 3;
+  PlaceMatcher matcher(params, model_);
+  // robot_b sent the word sets of its keyframes 5 (shares 4 words), 6 (shares 6) and 7 (2).
+  const WordSet own = {1, 3, 5, 7, 9, 11, 13};
+  matcher.keepTeammateWords("robot_b", 5, {1, 2, 3, 4, 5, 7});
+  matcher.keepTeammateWords("robot_b", 6, {1, 3, 5, 7, 9, 11, 12});
+  matcher.keepTeammateWords("robot_b", 7, {11, 13, 100});  // 11 and 13 shared
+  matcher.keepTeammateWords("robot_c", 1, {1, 3, 200});   // 2 shared: below the minimum
+  const auto result = matcher.teammateCorrespondences(own);
+  ASSERT_EQ(result.size(), 1U);
+  EXPECT_EQ(result[0].robot, "robot_b");
+  EXPECT_EQ(result[0].keyframe, 6U);
+  EXPECT_EQ(result[0].count, 6);
+  matcher.keepTeammateWords("robot_c", 2, {1, 3, 5, 9});
+  EXPECT_EQ(matcher.teammateCorrespondences(own).size(), 2U);
+  EXPECT_TRUE(matcher.teammateCorrespondences({}).empty());
+}
+
 TEST_F(PlaceMatcherTest, InvalidParametersAndMissingModelAreNamed) {
   MatcherParams params;
   params.max_candidates = 0;

@@ -199,5 +199,70 @@ TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
   EXPECT_TRUE(toSharedScan(velodyne, &shared));
 }
 
+TEST(Conversions, RoutingMessagesRoundTrip) {
+  core::routing::Offer offer;
+  offer.provider = "robot_a";
+  offer.requester = "robot_b";
+  offer.sequence = 9;
+  core::routing::OfferEntry entry;
+  entry.id = 17;
+  entry.pose = core::Pose3(Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  entry.correspondences = 12;
+  entry.size_bytes = 61234;
+  entry.utility = 0.75;
+  offer.scans = {entry, entry};
+  offer.scans[1].id = 18;
+  const ScanOffer msg = toOfferMsg(offer, "robot_a/map");
+  EXPECT_EQ(msg.map_frame, "robot_a/map");
+  core::routing::Offer back;
+  ASSERT_FALSE(toOffer(msg, &back));
+  EXPECT_EQ(back.provider, "robot_a");
+  EXPECT_EQ(back.requester, "robot_b");
+  EXPECT_EQ(back.sequence, 9U);
+  ASSERT_EQ(back.scans.size(), 2U);
+  EXPECT_EQ(back.scans[1].id, 18U);
+  EXPECT_EQ(back.scans[0].correspondences, 12);
+  EXPECT_EQ(back.scans[0].size_bytes, 61234U);
+  EXPECT_EQ(back.scans[0].utility, 0.75);
+  EXPECT_TRUE(back.scans[0].pose.isApprox(entry.pose, 1e-12));
+  auto bad = msg;
+  bad.scans[1].pose.orientation.w = 5.0;
+  EXPECT_TRUE(toOffer(bad, &back));
+
+  const core::routing::Request request{"robot_b", "robot_a", 9, {18, 17}};
+  const auto request_back = toRequest(toRequestMsg(request));
+  EXPECT_EQ(request_back.requester, "robot_b");
+  EXPECT_EQ(request_back.provider, "robot_a");
+  EXPECT_EQ(request_back.offer_sequence, 9U);
+  EXPECT_EQ(request_back.ids, request.ids);
+
+  const core::routing::Receipt receipt{"robot_b", "robot_a", {18}};
+  const auto receipt_back = toReceipt(toReceiptMsg(receipt));
+  EXPECT_EQ(receipt_back.receiver, "robot_b");
+  EXPECT_EQ(receipt_back.provider, "robot_a");
+  EXPECT_EQ(receipt_back.ids, receipt.ids);
+
+  LinkStats link;
+  link.connected = true;
+  link.budget_bytes_per_s = 150000.0;
+  link.total_budget_bytes_per_s = 120000.0;
+  link.queued_bulk_bytes = 4242;
+  const auto state = toLinkState(link);
+  EXPECT_TRUE(state.connected);
+  EXPECT_EQ(state.budget_bytes_per_s, 150000.0);
+  EXPECT_EQ(state.total_budget_bytes_per_s, 120000.0);
+  EXPECT_EQ(state.queued_bulk_bytes, 4242U);
+
+  core::routing::PeerCounters counters;
+  counters.scans_sent = 3;
+  counters.refused["evicted"] = 2;
+  const PeerRouting routing = toPeerRoutingMsg("robot_b", counters);
+  EXPECT_EQ(routing.peer, "robot_b");
+  EXPECT_EQ(routing.scans_sent, 3U);
+  ASSERT_EQ(routing.refused_reasons.size(), 1U);
+  EXPECT_EQ(routing.refused_reasons[0], "evicted");
+  EXPECT_EQ(routing.refused_counts[0], 2U);
+}
+
 }  // namespace
 }  // namespace ccir_mapping::conversions

@@ -12,9 +12,15 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/LinkStats.h"
+#include "ccir_mapping/PeerRouting.h"
+#include "ccir_mapping/ScanOffer.h"
+#include "ccir_mapping/ScanReceipt.h"
+#include "ccir_mapping/ScanRequest.h"
 #include "ccir_mapping/SharedScan.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/routing/routing_messages.h"
 
 namespace ccir_mapping::conversions {
 
@@ -61,5 +67,16 @@ std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* ou
 /// Preprocessor makes it). `max_points` bounds what a peer can make this robot allocate.
 std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
                                       Keyframe* out);
+
+/// CCIR's protocol messages. A teammate's offer with a non-finite or non-unit pose is refused
+/// (error), the rest cannot be malformed in their fields (the broker checks their content).
+std::optional<std::string> toOffer(const ScanOffer& msg, core::routing::Offer* out);
+ScanOffer toOfferMsg(const core::routing::Offer& offer, const std::string& map_frame);
+core::routing::Request toRequest(const ScanRequest& msg);
+ScanRequest toRequestMsg(const core::routing::Request& request);
+core::routing::Receipt toReceipt(const ScanReceipt& msg);
+ScanReceipt toReceiptMsg(const core::routing::Receipt& receipt);
+core::routing::LinkState toLinkState(const LinkStats& msg);
+PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerCounters& counters);
 
 }  // namespace ccir_mapping::conversions

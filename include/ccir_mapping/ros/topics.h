@@ -15,6 +15,9 @@ constexpr char kFeatures[] = "features";
 constexpr char kCorrespondences[] = "correspondences";
 constexpr char kLoopClosures[] = "loop_closures";
 constexpr char kTrajectory[] = "trajectory";
+constexpr char kKeyframeUncertainty[] = "keyframe_uncertainty";
+/// Teammates' scans, decoded from their wire form by the Broker.
+constexpr char kTeammateScans[] = "teammate_scans";
 constexpr char kTeamTransforms[] = "team_transforms";
 constexpr char kMapCloud[] = "map_cloud";
 constexpr char kMapStats[] = "map_stats";

@@ -99,6 +99,7 @@ BackendSnapshot TeamGraph::optimize() {
     const OptimizationResult result = optimizer_.optimize(graph);
     graph_.poses = graph.poses;
     last_weights_ = result.weights;
+    last_graph_ = graph;
     for (std::size_t k = 0; k < graph.edges.size(); ++k) {
       const PoseGraphEdge& e = graph.edges[k];
       if (!e.loop) continue;
@@ -163,7 +164,25 @@ std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
     if (it == index_.end()) return std::nullopt;
     indices.push_back(it->second);
   }
-  return optimizer_.marginalCovariances(graph_, indices);
+  // The last optimised graph, loops weighted as the robust kernel left them: a loop the
+  // switches accepted shrinks the uncertainty of the keyframes it closes.
+  if (last_graph_.poses.size() != graph_.poses.size()) {
+    return optimizer_.marginalCovariances(graph_, indices);
+  }
+  return optimizer_.marginalCovariances(last_graph_, indices, last_weights_);
+}
+
+std::optional<std::vector<double>> TeamGraph::positionVariances(
+    const std::vector<KeyframeId>& ids) const {
+  const auto all = covariances(ids);
+  if (!all) return std::nullopt;
+  std::vector<double> variances;
+  for (const auto& covariance : *all) {
+    // The position block leads (x y z, then rotation); the gauge keyframe's is 0.
+    const double det = covariance.topLeftCorner<3, 3>().determinant();
+    variances.push_back(det > 0.0 ? std::cbrt(det) : 0.0);
+  }
+  return variances;
 }
 
 }  // namespace ccir_mapping::core::backend

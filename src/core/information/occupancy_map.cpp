@@ -163,6 +163,24 @@ std::vector<VoxelGain> OccupancyMap::scanGains(const pcl::PointCloud<pcl::PointX
   return voxelGains(computeUpdate(sensor_points, map_from_sensor));
 }
 
+std::vector<VoxelGain> OccupancyMap::scanFootprint(
+    const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor) const {
+  pcl::PointCloud<pcl::PointXYZ> beams;
+  for (std::size_t i = 0; i < sensor_points.size();
+       i += static_cast<std::size_t>(params_.scan_beam_step)) {
+    beams.push_back(sensor_points[i]);
+  }
+  const ScanUpdate update = computeUpdate(beams, map_from_sensor);
+  const auto prior = [this](bool hit) {
+    return static_cast<float>(1.0 - occupancyEntropyBits(probability(updatedLogOdds(0.0F, hit))));
+  };
+  std::vector<VoxelGain> gains;
+  gains.reserve(update.free.size() + update.occupied.size());
+  for (const auto& key : update.free) gains.emplace_back(key, prior(false));
+  for (const auto& key : update.occupied) gains.emplace_back(key, prior(true));
+  return gains;
+}
+
 std::vector<VoxelGain> OccupancyMap::voxelGains(const ScanUpdate& update) const {
   std::vector<VoxelGain> gains;
   gains.reserve(update.free.size() + update.occupied.size());

@@ -114,6 +114,34 @@ std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const Word
   return result;
 }
 
+void PlaceMatcher::keepTeammateWords(const std::string& robot, KeyframeId id, WordSet words) {
+  teammate_words_[robot][id] = std::move(words);
+}
+
+std::vector<PlaceMatcher::TeammateCorrespondence> PlaceMatcher::teammateCorrespondences(
+    const WordSet& words) const {
+  // Sorted word sets of a few dozen words: a merge per kept set is cheaper than an index.
+  std::vector<TeammateCorrespondence> result;
+  for (const auto& [robot, sets] : teammate_words_) {
+    TeammateCorrespondence best{robot, 0, 0};
+    for (const auto& [id, other] : sets) {
+      int shared = 0;
+      for (auto a = words.begin(), b = other.begin(); a != words.end() && b != other.end();) {
+        if (*a < *b) {
+          ++a;
+        } else if (*b < *a) {
+          ++b;
+        } else {
+          ++shared, ++a, ++b;
+        }
+      }
+      if (shared > best.count) best = {robot, id, shared};
+    }
+    if (best.count > 0 && best.count >= params_.min_correspondences) result.push_back(best);
+  }
+  return result;
+}
+
 std::vector<MatchCandidate> PlaceMatcher::match(
     const PlaceSet& set, const DescribedKeyframe& query,
     const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {

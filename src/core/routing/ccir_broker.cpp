@@ -15,6 +15,7 @@ namespace {
 constexpr std::size_t kRecentOffers = 4;
 /// Below this a utility or score counts as nothing worth the link.
 constexpr double kNegligible = 1e-9;
+constexpr int kFootprintBlockLevels = 3;
 
 }  // namespace
 
@@ -42,35 +43,57 @@ void CcirBroker::refuse(const std::string& peer, const std::string& reason, std:
   counters_[peers_.count(peer) ? peer : std::string()].refused[reason] += n;
 }
 
-std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, const Pose3& map_pose,
+std::vector<information::VoxelGain> CcirBroker::footprint(
+    const information::MapInformation& map, const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+    const Pose3& map_from_sensor) {
+  return information::coarsened(map.scanFootprint(sensor_points, map_from_sensor),
+                                kFootprintBlockLevels);
+}
+
+void CcirBroker::addPeer(const std::string& name) {
+  if (name == self_ || name.empty() || peers_.count(name)) return;
+  peers_[name];
+  counters_[name];
+}
+
+std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose,
                                                 std::size_t size_bytes,
                                                 std::vector<information::VoxelGain> footprint) {
   Kept& kept = kept_[id];
-  kept.pose = map_pose;
+  kept.stamp = stamp;
+  kept.odom_pose = odom_pose;
+  kept.pose = placeOwn(odom_pose);
   kept.size_bytes = size_bytes;
   kept.footprint = std::move(footprint);
+  kept_by_stamp_[stamp] = id;
   std::vector<KeyframeId> evicted;
   while (kept_.size() > static_cast<std::size_t>(params_.max_kept_scans)) {
-    evicted.push_back(kept_.begin()->first);
-    kept_.erase(kept_.begin());
+    const auto oldest = kept_.begin();
+    evicted.push_back(oldest->first);
+    kept_by_stamp_.erase(oldest->second.stamp);
+    kept_.erase(oldest);
   }
   return evicted;
 }
 
-std::vector<std::string> CcirBroker::directPeers(KeyframeId id) {
+bool CcirBroker::sendsToAll(KeyframeId id) {
   const bool send = params_.mode == RoutingMode::kAll ||
                     (params_.mode == RoutingMode::kFixedRate && fixed_rate_.select());
-  std::vector<std::string> to;
-  if (!send || !kept_.count(id)) return to;
-  for (auto& [name, peer] : peers_) {
-    markSent(name, peer, id, 0.0);
-    to.push_back(name);
-  }
-  return to;
+  if (!send || !kept_.count(id)) return false;
+  for (auto& [name, peer] : peers_) markSent(name, peer, id, 0.0);
+  return true;
 }
 
-void CcirBroker::setPose(KeyframeId id, const Pose3& map_pose) {
-  if (const auto it = kept_.find(id); it != kept_.end()) it->second.pose = map_pose;
+void CcirBroker::setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses) {
+  const Kept* newest = nullptr;
+  for (const auto& [stamp, pose] : poses) {
+    const auto id = kept_by_stamp_.find(stamp);
+    if (id == kept_by_stamp_.end()) continue;
+    Kept& kept = kept_.at(id->second);
+    kept.pose = pose;
+    if (!newest || kept.stamp > newest->stamp) newest = &kept;
+  }
+  if (newest) map_from_odom_ = newest->pose * newest->odom_pose.inverse();
 }
 
 void CcirBroker::setUncertainty(KeyframeId id, double variance_m2) {

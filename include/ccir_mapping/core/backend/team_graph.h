@@ -73,6 +73,10 @@ class TeamGraph {
 
   /// Marginal covariances of the given keyframes at the last optimisation (pose uncertainty).
   std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
+  /// CCIR's u_k of the given keyframes: the geometric mean of the eigenvalues of each one's
+  /// marginal position covariance, m^2 (monotone in their product, the thesis's u, and still a
+  /// variance: the product of three ~1e-3 m^2 variances underflows the scale of everything else).
+  std::optional<std::vector<double>> positionVariances(const std::vector<KeyframeId>& ids) const;
 
  private:
   std::string robot_;
@@ -86,6 +90,7 @@ class TeamGraph {
   std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
   std::vector<LoopClosureData> loops_;  // all of them; resolved at each optimisation
   std::vector<double> last_weights_;
+  PoseGraph last_graph_;  // graph_ with the loops of the last optimisation
 };
 
 }  // namespace ccir_mapping::core::backend

@@ -64,6 +64,8 @@ class OccupancyMap final : public MapInformation {
   /// voxelGains(computeUpdate(sensor_points, map_from_sensor)).
   std::vector<VoxelGain> scanGains(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
                                    const Pose3& map_from_sensor) const override;
+  std::vector<VoxelGain> scanFootprint(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                                       const Pose3& map_from_sensor) const override;
 
   /// Sum of voxel entropies in the box, in bits; an unknown voxel has 1 bit. Walks the box.
   double entropyBits(const Box& box) const;

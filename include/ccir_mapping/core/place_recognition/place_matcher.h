@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -73,6 +74,17 @@ class PlaceMatcher {
   /// c_k of every local place sharing at least min_correspondences words, most first.
   std::vector<std::pair<KeyframeId, int>> correspondences(const WordSet& words) const;
 
+  /// A teammate's word set, kept so an own keyframe made later gets its c_k with it too.
+  void keepTeammateWords(const std::string& robot, KeyframeId id, WordSet words);
+  struct TeammateCorrespondence {
+    std::string robot;
+    KeyframeId keyframe = 0;
+    int count = 0;
+  };
+  /// Per teammate, its kept keyframe sharing the most words with `words` (at least
+  /// min_correspondences): the c_k a new own keyframe has with that teammate.
+  std::vector<TeammateCorrespondence> teammateCorrespondences(const WordSet& words) const;
+
   /// Matches an own keyframe against own places at least loop_exclusion_s older, then adds it
   /// as a place. Returns the verified candidates, best-ranked first; with odometry on both
   /// keyframes, a verified closure that moves the keyframe farther from where odometry puts it
@@ -106,6 +118,8 @@ class PlaceMatcher {
   FabMapModel fabmap_model_;
   std::unique_ptr<PlaceSet> own_;
   std::unique_ptr<PlaceSet> kept_;  // teammates' scans
+  /// Teammates' word sets by robot and keyframe.
+  std::map<std::string, std::map<KeyframeId, WordSet>> teammate_words_;
 };
 
 }  // namespace ccir_mapping::core::place_recognition

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "ccir_mapping/core/information/coverage.h"
+#include "ccir_mapping/core/information/map_information.h"
 #include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/routing/fixed_rate_selector.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
@@ -44,16 +45,30 @@ class CcirBroker {
   /// or a peer is named twice.
   CcirBroker(std::string self, std::vector<std::string> peers, const BrokerParams& params);
 
-  /// A new own keyframe: its sensor pose in the map frame, its size on the wire and its
-  /// footprint. Returns the ids no longer kept (the oldest beyond max_kept_scans).
-  std::vector<KeyframeId> addKeyframe(KeyframeId id, const Pose3& map_pose,
+  /// A keyframe's footprint: its scanFootprint on `map` summed over blocks of 2^3 voxels a side
+  /// (0.8 m at 0.1 m), the unit the belief counts coverage in.
+  static std::vector<information::VoxelGain> footprint(
+      const information::MapInformation& map, const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+      const Pose3& map_from_sensor);
+
+  /// The teammates (they may also be added later; adding one twice changes nothing).
+  void addPeer(const std::string& name);
+  /// Where an own keyframe at `odom_pose` is in the map frame: the newest optimised correction
+  /// (map -> odom) applied to it.
+  Pose3 placeOwn(const Pose3& odom_pose) const { return map_from_odom_ * odom_pose; }
+  /// A new own keyframe: its stamp and odometry pose, its size on the wire and its footprint
+  /// (at placeOwn(odom_pose)). Returns the ids no longer kept (the oldest beyond
+  /// max_kept_scans).
+  std::vector<KeyframeId> addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose,
                                       std::size_t size_bytes,
                                       std::vector<information::VoxelGain> footprint);
-  /// fixed_rate and all: the peers a new keyframe goes to now (counted as sent); none in ccir.
-  std::vector<std::string> directPeers(KeyframeId id);
+  /// fixed_rate and all: true when a new keyframe goes to every teammate now (counted as sent
+  /// to each known one); never in ccir.
+  bool sendsToAll(KeyframeId id);
 
-  /// Optimised poses of kept keyframes (the offers carry them).
-  void setPose(KeyframeId id, const Pose3& map_pose);
+  /// Optimised sensor poses of own keyframes by stamp (the Backend's trajectory): the offers
+  /// carry them, and the newest places keyframes made later.
+  void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
   /// Pose uncertainty u_k (a variance, m^2) of own keyframes from the pose graph.
   void setUncertainty(KeyframeId id, double variance_m2);
   /// c_k of own keyframe `id` with a keyframe of `peer`; the largest seen is kept.
@@ -72,6 +87,8 @@ class CcirBroker {
   };
   /// A teammate's request: the ids to send, counted as sent.
   RequestOutcome onRequest(const Request& request, double now_s);
+  /// Counts something refused outside the broker (e.g. a scan that could not be decoded).
+  void countRefusal(const std::string& peer, const std::string& reason) { refuse(peer, reason); }
   /// A teammate acknowledges scans; false (counted) when it names this robot wrongly.
   bool onReceipt(const Receipt& receipt);
 
@@ -98,6 +115,8 @@ class CcirBroker {
 
  private:
   struct Kept {
+    Stamp stamp = 0;
+    Pose3 odom_pose;
     Pose3 pose;
     std::size_t size_bytes = 0;
     std::vector<information::VoxelGain> footprint;
@@ -137,6 +156,8 @@ class CcirBroker {
   std::map<std::string, Peer> peers_;
   std::map<std::string, PeerCounters> counters_;
   std::map<KeyframeId, Kept> kept_;
+  std::map<Stamp, KeyframeId> kept_by_stamp_;
+  Pose3 map_from_odom_ = Pose3::Identity();
   FixedRateSelector fixed_rate_;
 };
 

@@ -1,6 +1,7 @@
 // A robot's occupancy map shared between the nodelets of its manager: the Mapper writes it, the
-// Broker asks it information questions in-process (no copy over a topic). Readers take a shared
-// lock for the duration of a query; the Mapper swaps in a rebuilt map under the exclusive lock.
+// Broker asks it information questions in-process (no copy over a topic) through
+// MapInformation. Readers take a shared lock for the duration of a query; the Mapper swaps in a
+// rebuilt map under the exclusive lock, so a query never sees a map half rebuilt.
 #pragma once
 
 #include <map>
@@ -11,23 +12,23 @@
 
 #include "ccir_mapping/core/information/occupancy_map.h"
 
-namespace ccir_mapping {
+namespace ccir_mapping::core::information {
 
 class SharedMap {
  public:
-  explicit SharedMap(std::unique_ptr<core::information::OccupancyMap> map) : map_(std::move(map)) {}
+  explicit SharedMap(std::unique_ptr<OccupancyMap> map) : map_(std::move(map)) {}
 
   template <class F>
   auto read(F&& f) const {
     std::shared_lock lock(mutex_);
-    return f(static_cast<const core::information::OccupancyMap&>(*map_));
+    return f(static_cast<const OccupancyMap&>(*map_));
   }
   template <class F>
   auto write(F&& f) {
     std::unique_lock lock(mutex_);
     return f(*map_);
   }
-  void replace(std::unique_ptr<core::information::OccupancyMap> map) {
+  void replace(std::unique_ptr<OccupancyMap> map) {
     std::unique_lock lock(mutex_);
     map_ = std::move(map);
   }
@@ -55,7 +56,7 @@ class SharedMap {
   }
 
   mutable std::shared_mutex mutex_;
-  std::unique_ptr<core::information::OccupancyMap> map_;
+  std::unique_ptr<OccupancyMap> map_;
 };
 
-}  // namespace ccir_mapping
+}  // namespace ccir_mapping::core::information
