@@ -1,98 +1,145 @@
-// Broker: decides what this robot sends to its teammates. The fixed-rate baseline sends every
-// n-th keyframe; CCIR offer/request routing arrives with the routing core. Both forward the
-// local word sets to the outbox.
+// Broker: what this robot sends its teammates and asks of them (core::routing::CcirBroker). It
+// forwards the word sets, keeps own keyframes in their wire form, makes offers, answers
+// requests, chooses what to request from teammates' offers, decodes the scans they send onto
+// teammate_scans and acknowledges them. The teammates are those of this robot's Bridge.
+#include <map>
 #include <mutex>
 #include <sstream>
 
 #include <dynamic_reconfigure/server.h>
+#include <nav_msgs/Path.h>
+#include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/BrokerConfig.h"
 #include "ccir_mapping/BrokerStats.h"
 #include "ccir_mapping/Correspondences.h"
-#include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/KeyframeFeatures.h"
-#include "ccir_mapping/ScanOffer.h"
-#include "ccir_mapping/ScanReceipt.h"
-#include "ccir_mapping/ScanRequest.h"
-#include "ccir_mapping/core/routing/fixed_rate_selector.h"
+#include "ccir_mapping/KeyframeUncertainty.h"
+#include "ccir_mapping/TeamTransform.h"
+#include "ccir_mapping/core/information/shared_map.h"
+#include "ccir_mapping/core/routing/ccir_broker.h"
+#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
 namespace ccir_mapping {
 
+namespace routing = core::routing;
+
+namespace {
+
+/// Where robot.launch puts the Bridge nodelet's parameters (the teammates come from there).
+constexpr char kBridgeNamespace[] = "bridge";
+/// Most points a teammate's scan may decode to (a VLP-16 sweep has ~29 k before filtering).
+constexpr std::size_t kMaxScanPoints = 1 << 20;
+
+}  // namespace
+
 class BrokerNodelet final : public PipelineNodelet {
  private:
+  struct PeerOutbox {
+    ros::Publisher offers, requests, receipts, scans;
+  };
+
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
-    selector_ =
-        std::make_unique<core::routing::FixedRateSelector>(settings_.core.fixed_rate_every_n);
-    stats_.robot = settings_.frames.robot_name;
+    XmlRpc::XmlRpcValue bridge_values;
+    ros::param::get(nh.resolveName(kBridgeNamespace), bridge_values);
+    ros_params::ParamReader bridge_reader(bridge_values, nh.resolveName(kBridgeNamespace));
+    ros_params::BridgeSettings bridge;
+    load(bridge_reader, bridge);
+    if (!bridge_reader.errors().empty()) {
+      NODELET_WARN("the Bridge's parameters are invalid (it says why): no teammates to route to");
+      bridge.core.peers.clear();
+    }
+    std::vector<std::string> peers;
+    for (const auto& peer : bridge.core.peers) {
+      peers.push_back(peer.name);
+      auto& out = outboxes_[peer.name];
+      out.offers = nh.advertise<ScanOffer>(topics::outboxTo(peer.name, "offers"), 50);
+      out.requests = nh.advertise<ScanRequest>(topics::outboxTo(peer.name, "requests"), 50);
+      out.receipts = nh.advertise<ScanReceipt>(topics::outboxTo(peer.name, "receipts"), 50);
+      out.scans =
+          nh.advertise<SharedScan>(topics::outboxTo(peer.name, "scans"), topics::kKeyframeQueueSize);
+    }
+    broker_ =
+        std::make_unique<routing::CcirBroker>(settings_.frames.robot_name, peers, settings_.core);
+    // Footprints need the map's parameters only, not its contents: an empty map of the
+    // Mapper's settings (its parameters, read like the Bridge's).
+    footprint_map_ = std::make_unique<core::information::OccupancyMap>(mapperParams());
 
     stats_pub_ = nh.advertise<BrokerStats>(topics::kBrokerStats, topics::kLatestOnlyQueueSize);
     features_pub_ =
         nh.advertise<KeyframeFeatures>(topics::kOutboxFeatures, topics::kMessageQueueSize);
-    offers_pub_ = nh.advertise<ScanOffer>(topics::kOutboxOffers, topics::kMessageQueueSize);
-    requests_pub_ = nh.advertise<ScanRequest>(topics::kOutboxRequests, topics::kMessageQueueSize);
-    receipts_pub_ = nh.advertise<ScanReceipt>(topics::kOutboxReceipts, topics::kMessageQueueSize);
-    scans_pub_ = nh.advertise<Keyframe>(topics::kOutboxScans, topics::kKeyframeQueueSize);
+    scans_pub_ = nh.advertise<SharedScan>(topics::kOutboxScans, topics::kKeyframeQueueSize);
+    teammate_scans_pub_ =
+        nh.advertise<Keyframe>(topics::kTeammateScans, topics::kKeyframeQueueSize);
+    subscribe(topics::kKeyframes, &BrokerNodelet::onKeyframe, topics::kKeyframeQueueSize);
+    subscribe(topics::kFeatures, &BrokerNodelet::onFeatures);
+    subscribe(topics::kCorrespondences, &BrokerNodelet::onCorrespondences);
+    subscribe(topics::kTrajectory, &BrokerNodelet::onTrajectory, 1);
+    subscribe(topics::kKeyframeUncertainty, &BrokerNodelet::onUncertainty, 1);
+    subscribe(topics::kTeamTransforms, &BrokerNodelet::onTeamTransform);
+    subscribe(topics::kLinkStats, &BrokerNodelet::onLinkStats);
+    subscribe(topics::kInboxOffers, &BrokerNodelet::onOffer);
+    subscribe(topics::kInboxRequests, &BrokerNodelet::onRequest);
+    subscribe(topics::kInboxReceipts, &BrokerNodelet::onReceipt);
+    subscribe(topics::kInboxScans, &BrokerNodelet::onScan, topics::kKeyframeQueueSize);
 
-    subs_.push_back(nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
-                                 &BrokerNodelet::onKeyframe, this));
-    subs_.push_back(nh.subscribe(topics::kFeatures, topics::kMessageQueueSize,
-                                 &BrokerNodelet::onFeatures, this));
-    subs_.push_back(nh.subscribe<Correspondences>(
-        topics::kCorrespondences, topics::kMessageQueueSize,
-        [this](const Correspondences::ConstPtr&) { count("in correspondences"); }));
-    subs_.push_back(nh.subscribe<ScanOffer>(topics::kInboxOffers, topics::kMessageQueueSize,
-                                            [this](const ScanOffer::ConstPtr&) {
-                                              count("in inbox/offers");
-                                              std::lock_guard<std::mutex> lock(mutex_);
-                                              ++stats_.offers_received;
-                                            }));
-    subs_.push_back(nh.subscribe<ScanRequest>(topics::kInboxRequests, topics::kMessageQueueSize,
-                                              [this](const ScanRequest::ConstPtr&) {
-                                                count("in inbox/requests");
-                                                std::lock_guard<std::mutex> lock(mutex_);
-                                                ++stats_.requests_received;
-                                              }));
-    subs_.push_back(nh.subscribe<ScanReceipt>(topics::kInboxReceipts, topics::kMessageQueueSize,
-                                              [this](const ScanReceipt::ConstPtr&) {
-                                                count("in inbox/receipts");
-                                                std::lock_guard<std::mutex> lock(mutex_);
-                                                ++stats_.receipts_received;
-                                              }));
-    subs_.push_back(nh.subscribe<Keyframe>(
-        topics::kInboxScans, topics::kKeyframeQueueSize, [this](const Keyframe::ConstPtr& scan) {
-          count("in inbox/scans");
-          std::lock_guard<std::mutex> lock(mutex_);
-          ++stats_.scans_received;
-          stats_.scan_bytes_received += ros::serialization::serializationLength(*scan);
-        }));
-
+    createPeriodicTimer(settings_.core.offer_period_s, [this] { measured("route", [this] { route(); }); });
     createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<BrokerConfig>>(
         reconfigure_mutex_, getPrivateNodeHandle());
     reconfigure_->setCallback([this](BrokerConfig& config, uint32_t) { onReconfigure(config); });
   }
 
+  template <class M>
+  void subscribe(const char* topic, void (BrokerNodelet::*callback)(const boost::shared_ptr<M const>&),
+                 int queue = topics::kMessageQueueSize) {
+    subs_.push_back(getNodeHandle().subscribe<M>(topic, queue, callback, this));
+  }
+
+  core::information::MapperParams mapperParams() {
+    XmlRpc::XmlRpcValue values;
+    ros::param::get(getNodeHandle().resolveName("mapper"), values);
+    ros_params::ParamReader reader(values, getNodeHandle().resolveName("mapper"));
+    ros_params::MapperSettings mapper;
+    load(reader, mapper);
+    return reader.errors().empty() ? mapper.core : core::information::MapperParams{};
+  }
+
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
     count("in keyframes");
-    bool send = false;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++stats_.keyframes;
-      if (settings_.core.mode == core::routing::RoutingMode::kFixedRate && selector_->select()) {
-        send = true;
-        ++stats_.scans_sent;
-        stats_.scan_bytes_sent += ros::serialization::serializationLength(*keyframe);
-      }
+    auto shared = boost::make_shared<SharedScan>();
+    const auto odom_pose = conversions::toPose(keyframe->odom_pose);
+    std::optional<std::string> error = conversions::toSharedScan(*keyframe, shared.get());
+    if (!error && !odom_pose) error = "odom_pose is not finite";
+    if (error) {
+      NODELET_WARN_THROTTLE(5.0, "not sharing keyframe %lu: %s",
+                            static_cast<unsigned long>(keyframe->id), error->c_str());
+      count("dropped keyframes");
+      return;
     }
-    if (send) {
-      count("out outbox/scans");
-      scans_pub_.publish(keyframe);  // the same message, not a copy
+    pcl::PointCloud<pcl::PointXYZ> points;
+    pcl::fromROSMsg(keyframe->cloud, points);
+    const std::size_t bytes = ros::serialization::serializationLength(*shared);
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++keyframes_;
+    auto footprint = measured("footprint", [&] {
+      return routing::CcirBroker::footprint(*footprint_map_, points, broker_->placeOwn(*odom_pose));
+    });
+    for (const auto id : broker_->addKeyframe(keyframe->id, conversions::toStamp(keyframe->header.stamp),
+                                              *odom_pose, bytes, std::move(footprint))) {
+      kept_.erase(id);
+    }
+    kept_[keyframe->id] = shared;
+    if (broker_->sendsToAll(keyframe->id)) {
+      count("out outbox/scans", bytes);
+      ++scans_sent_;
+      scans_pub_.publish(shared);
     }
   }
 
@@ -100,36 +147,189 @@ class BrokerNodelet final : public PipelineNodelet {
     count("in features");
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      ++stats_.features_sent;
+      ++features_sent_;
     }
     count("out outbox/features");
     features_pub_.publish(features);
   }
 
+  void onCorrespondences(const Correspondences::ConstPtr& msg) {
+    count("in correspondences");
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (std::size_t i = 0; i < std::min(msg->keyframe_ids.size(), msg->counts.size()); ++i) {
+      broker_->setCorrespondences(msg->peer, msg->keyframe_ids[i], static_cast<int>(msg->counts[i]));
+    }
+  }
+
+  void onTrajectory(const nav_msgs::Path::ConstPtr& path) {
+    std::vector<std::pair<core::Stamp, core::Pose3>> poses;
+    for (const auto& p : path->poses) {
+      if (const auto pose = conversions::toPose(p.pose)) {
+        poses.emplace_back(conversions::toStamp(p.header.stamp), *pose);
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    broker_->setOptimizedPoses(poses);
+  }
+
+  void onUncertainty(const KeyframeUncertainty::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::size_t n = std::min(msg->keyframe_ids.size(), msg->position_variance_m2.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      broker_->setUncertainty(msg->keyframe_ids[i], msg->position_variance_m2[i]);
+    }
+  }
+
+  void onTeamTransform(const TeamTransform::ConstPtr& msg) {
+    const auto transform = conversions::toPose(msg->transform);
+    std::lock_guard<std::mutex> lock(mutex_);
+    broker_->setTransformKnown(msg->peer, msg->valid && transform);
+    if (msg->valid && transform) {
+      team_[msg->peer] = *transform;
+    } else {
+      team_.erase(msg->peer);
+    }
+  }
+
+  void onLinkStats(const LinkStats::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    broker_->setLink(msg->peer, conversions::toLinkState(*msg));
+  }
+
+  void onOffer(const ScanOffer::ConstPtr& msg) {
+    count("in inbox/offers");
+    routing::Offer offer;
+    std::string reason;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (const auto error = conversions::toOffer(*msg, &offer)) {
+      reason = *error;
+      broker_->countRefusal(msg->provider, "malformed_offer");
+    } else if (broker_->onOffer(offer, &reason)) {
+      return;
+    }
+    NODELET_WARN_THROTTLE(5.0, "refusing an offer from '%s': %s", msg->provider.c_str(),
+                          reason.c_str());
+  }
+
+  void onRequest(const ScanRequest::ConstPtr& msg) {
+    count("in inbox/requests");
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto outcome = broker_->onRequest(conversions::toRequest(*msg), clockNow());
+    for (const auto& [reason, n] : outcome.refused) {
+      NODELET_WARN_THROTTLE(5.0, "refusing %d scan(s) %s asked for: %s", n, msg->requester.c_str(),
+                            reason.c_str());
+    }
+    const auto out = outboxes_.find(msg->requester);
+    if (out == outboxes_.end()) return;  // not a teammate: refused above
+    for (const auto id : outcome.send) {
+      count("out outbox/to/" + msg->requester + "/scans");
+      ++scans_sent_;
+      out->second.scans.publish(kept_.at(id));  // kept, not copied
+    }
+  }
+
+  void onReceipt(const ScanReceipt::ConstPtr& msg) {
+    count("in inbox/receipts");
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!broker_->onReceipt(conversions::toReceipt(*msg))) {
+      NODELET_WARN_THROTTLE(5.0, "refusing a receipt from '%s' for '%s'", msg->receiver.c_str(),
+                            msg->provider.c_str());
+    }
+  }
+
+  void onScan(const SharedScan::ConstPtr& msg) {
+    count("in inbox/scans", msg->points.size());
+    auto keyframe = boost::make_shared<Keyframe>();
+    std::optional<std::string> error;
+    if (msg->robot == settings_.frames.robot_name) error = "it is this robot's own (bridge loop?)";
+    if (!error) error = conversions::toKeyframe(*msg, kMaxScanPoints, keyframe.get());
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (error) {
+      broker_->countRefusal(msg->robot, "undecodable_scan");
+      NODELET_WARN_THROTTLE(5.0, "dropping scan %lu of '%s': %s",
+                            static_cast<unsigned long>(msg->id), msg->robot.c_str(),
+                            error->c_str());
+      return;
+    }
+    if (!broker_->onScanReceived(msg->robot, msg->id, ros::serialization::serializationLength(*msg))) {
+      return;  // a duplicate or a stranger's: counted
+    }
+    ++scans_received_;
+    count("out teammate_scans");
+    teammate_scans_pub_.publish(keyframe);
+  }
+
+  /// One offer period: offers to every teammate, requests from their offers, receipts.
+  void route() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double now = clockNow();
+    for (auto& [peer, out] : outboxes_) {
+      if (const auto offer = broker_->makeOffer(peer, now)) {
+        publishControl(peer, out.offers, conversions::toOfferMsg(*offer, settings_.frames.map_frame));
+      }
+    }
+    const auto map = core::information::SharedMap::find(settings_.frames.robot_name);
+    const auto information = [&](const std::string& provider, const routing::OfferEntry& scan) {
+      const auto team = team_.find(provider);
+      if (!map || team == team_.end()) return 0.0;
+      return map->read([&](const core::information::MapInformation& m) {
+        return m.simulatedCsqmi(team->second * scan.pose);
+      });
+    };
+    for (const auto& request : broker_->chooseRequests(information)) {
+      publishControl(request.provider, outboxes_.at(request.provider).requests,
+                     conversions::toRequestMsg(request));
+    }
+    for (const auto& receipt : broker_->takeReceipts()) {
+      publishControl(receipt.provider, outboxes_.at(receipt.provider).receipts,
+                     conversions::toReceiptMsg(receipt));
+    }
+  }
+
+  template <class M>
+  void publishControl(const std::string& peer, ros::Publisher& publisher, M msg) {
+    msg.header.stamp = ros::Time::now();
+    const std::size_t bytes = ros::serialization::serializationLength(msg);
+    broker_->addControlBytes(peer, bytes);
+    count("out " + publisher.getTopic(), bytes);
+    publisher.publish(boost::make_shared<M>(std::move(msg)));
+  }
+
+  /// Seconds on the clock the offer timer follows (receipt timeouts compare against it).
+  double clockNow() const { return ros::Time::now().toSec(); }
+
   void publishStats() {
     auto stats = boost::make_shared<BrokerStats>();
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      *stats = stats_;
+      stats->keyframes = keyframes_;
+      stats->features_sent = features_sent_;
+      stats->kept_scans = static_cast<std::uint32_t>(broker_->keptScans());
+      for (const auto& [peer, c] : broker_->counters()) {
+        stats->scan_bytes_sent += c.scan_bytes_sent;
+        stats->scan_bytes_received += c.scan_bytes_received;
+        stats->peers.push_back(conversions::toPeerRoutingMsg(peer, c));
+      }
+      stats->scans_sent = scans_sent_;
+      stats->scans_received = scans_received_;
     }
     stats->header.stamp = ros::Time::now();
-    stats->mode = core::routing::toString(settings_.core.mode);
+    stats->robot = settings_.frames.robot_name;
+    stats->mode = routing::toString(settings_.core.mode);
     stats_pub_.publish(stats);
   }
 
   void onReconfigure(BrokerConfig& config) {
     std::lock_guard<std::mutex> lock(mutex_);
-    core::routing::BrokerParams candidate = settings_.core;
+    routing::BrokerParams candidate = settings_.core;
     candidate.loop_closure_weight = config.loop_closure_weight;
     candidate.unknown_transform_factor = config.unknown_transform_factor;
-    candidate.budget_bytes_per_s = config.budget_bytes_per_s;
     candidate.fixed_rate_every_n = config.fixed_rate_every_n;
     const auto errors = candidate.validate();
     if (!errors.empty()) {
       NODELET_ERROR("reconfigure rejected: %s", errors.front().c_str());
       config.loop_closure_weight = settings_.core.loop_closure_weight;
       config.unknown_transform_factor = settings_.core.unknown_transform_factor;
-      config.budget_bytes_per_s = settings_.core.budget_bytes_per_s;
       config.fixed_rate_every_n = settings_.core.fixed_rate_every_n;
       return;
     }
@@ -138,20 +338,23 @@ class BrokerNodelet final : public PipelineNodelet {
                candidate.loop_closure_weight);
     noteChange(changes, "unknown_transform_factor", settings_.core.unknown_transform_factor,
                candidate.unknown_transform_factor);
-    noteChange(changes, "budget_bytes_per_s", settings_.core.budget_bytes_per_s,
-               candidate.budget_bytes_per_s);
     noteChange(changes, "fixed_rate_every_n", settings_.core.fixed_rate_every_n,
                candidate.fixed_rate_every_n);
     if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
     settings_.core = candidate;
-    selector_->setEveryN(candidate.fixed_rate_every_n);
+    broker_->setParams(candidate);
   }
 
   ros_params::BrokerSettings settings_;
+  /// Guards everything below it.
   std::mutex mutex_;
-  BrokerStats stats_;
-  std::unique_ptr<core::routing::FixedRateSelector> selector_;
-  ros::Publisher stats_pub_, features_pub_, offers_pub_, requests_pub_, receipts_pub_, scans_pub_;
+  std::unique_ptr<routing::CcirBroker> broker_;
+  std::unique_ptr<core::information::OccupancyMap> footprint_map_;
+  std::map<core::KeyframeId, SharedScan::ConstPtr> kept_;
+  std::map<std::string, core::Pose3> team_;  // this robot's map <- a teammate's
+  std::map<std::string, PeerOutbox> outboxes_;
+  std::uint64_t keyframes_ = 0, features_sent_ = 0, scans_sent_ = 0, scans_received_ = 0;
+  ros::Publisher stats_pub_, features_pub_, scans_pub_, teammate_scans_pub_;
   std::vector<ros::Subscriber> subs_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<BrokerConfig>> reconfigure_;

@@ -193,8 +193,10 @@ void load(ParamReader& reader, BrokerSettings& config) {
                     core::routing::kRoutingModeChoices, &core::routing::toString);
   reader.read("loop_closure_weight", p.loop_closure_weight);
   reader.read("unknown_transform_factor", p.unknown_transform_factor);
-  reader.read("budget_bytes_per_s", p.budget_bytes_per_s);
   reader.read("offer_period_s", p.offer_period_s);
+  reader.read("max_kept_scans", p.max_kept_scans);
+  reader.read("receipt_timeout_s", p.receipt_timeout_s);
+  reader.read("max_offer_scans", p.max_offer_scans);
   reader.read("fixed_rate_every_n", p.fixed_rate_every_n);
   reader.read("stats_period_s", p.stats_period_s);
   reader.addErrors(p.validate());

@@ -42,7 +42,6 @@ TEST(ReconfigureBounds, Broker) {
   using Core = core::routing::BrokerParams;
   CCIR_EXPECT_FIELD(Core, BrokerConfig, loop_closure_weight);
   CCIR_EXPECT_FIELD(Core, BrokerConfig, unknown_transform_factor);
-  CCIR_EXPECT_FIELD(Core, BrokerConfig, budget_bytes_per_s);
   CCIR_EXPECT_FIELD(Core, BrokerConfig, fixed_rate_every_n);
 }
 

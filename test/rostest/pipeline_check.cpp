@@ -23,6 +23,8 @@
 
 #include "ccir_mapping/BrokerStats.h"
 #include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/SharedScan.h"
+#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/KeyframeFeatures.h"
 #include "ccir_mapping/LinkStats.h"
 #include "ccir_mapping/MapStats.h"
@@ -55,7 +57,7 @@ class Pipeline : public ::testing::Test {
     tf2_ros::TransformBroadcaster tf;
     std::vector<Keyframe::ConstPtr> keyframes;
     std::vector<KeyframeFeatures::ConstPtr> features;
-    std::vector<Keyframe::ConstPtr> outbox_scans;
+    std::vector<SharedScan::ConstPtr> outbox_scans;
     nav_msgs::Path::ConstPtr trajectory;
     BrokerStats::ConstPtr broker_stats;
     LinkStats::ConstPtr link_stats;
@@ -69,7 +71,7 @@ class Pipeline : public ::testing::Test {
                                             [this](const auto& m) { keyframes.push_back(m); }));
       subs.push_back(nh.subscribe<KeyframeFeatures>(
           "outbox/features", 100, [this](const auto& m) { features.push_back(m); }));
-      subs.push_back(nh.subscribe<Keyframe>("outbox/scans", 100,
+      subs.push_back(nh.subscribe<SharedScan>("outbox/scans", 100,
                                             [this](const auto& m) { outbox_scans.push_back(m); }));
       subs.push_back(
           nh.subscribe<nav_msgs::Path>("trajectory", 1, [this](const auto& m) { trajectory = m; }));
@@ -222,7 +224,20 @@ TEST_F(Pipeline, FixedRateBrokerSendsEveryNthKeyframe) {
       << (s().broker_stats ? s().broker_stats->features_sent : 0);
   EXPECT_EQ(s().broker_stats->mode, "fixed_rate");
   EXPECT_EQ(s().broker_stats->scans_sent, 5u);
-  EXPECT_GT(s().broker_stats->scan_bytes_sent, 5u * 12000u);
+  // In their wire form: a ~300-point keyframe takes a few kB, not the ~15 kB of its cloud.
+  EXPECT_GT(s().broker_stats->scan_bytes_sent, 5u * 300u);
+  EXPECT_LT(s().broker_stats->scan_bytes_sent, 5u * 6000u);
+  EXPECT_EQ(s().broker_stats->kept_scans, 10u);
+  ASSERT_EQ(s().broker_stats->peers.size(), 1u);
+  EXPECT_EQ(s().broker_stats->peers[0].peer, s().peer);
+  EXPECT_EQ(s().broker_stats->peers[0].scans_sent, 5u);
+  EXPECT_EQ(s().broker_stats->peers[0].offers_sent, 0u) << "no offers in fixed_rate";
+  // What goes out decodes back to the keyframe.
+  Keyframe decoded;
+  ASSERT_FALSE(conversions::toKeyframe(*s().outbox_scans[1], 100000, &decoded));
+  EXPECT_EQ(decoded.id, 2u);
+  EXPECT_EQ(decoded.robot, s().robot);
+  EXPECT_EQ(decoded.cloud.width * decoded.cloud.height, s().keyframes[2]->cloud.width * s().keyframes[2]->cloud.height);
 }
 
 TEST_F(Pipeline, BridgeReportsItsPeerLink) {
@@ -288,13 +303,26 @@ TEST_F(Pipeline, MapperMapsTheKeyframesAndSavesTheMap) {
   broken->robot = s().peer;
   broken->odom_pose.position.x = std::numeric_limits<double>::quiet_NaN();
   broken->cloud = State::cloud(s().peer + "/velodyne", s().stamp(0));
-  ros::Publisher inbox = s().nh.advertise<Keyframe>("inbox/scans", 10);
+  ros::Publisher teammate_scans = s().nh.advertise<Keyframe>("teammate_scans", 10);
   // Until the warning shows (the first publications may precede the connection).
   int polls = 0;
   EXPECT_TRUE(waitFor(
       [&] {
-        if (polls++ % 20 == 0) inbox.publish(broken);
+        if (polls++ % 20 == 0) teammate_scans.publish(broken);
         return s().logged(rosgraph_msgs::Log::WARN, "dropping teammate scan");
+      },
+      10.0));
+  // One whose wire form does not decode never gets that far: the Broker refuses it.
+  auto garbage = boost::make_shared<SharedScan>();
+  garbage->robot = s().peer;
+  garbage->point_count = 10;
+  garbage->points = {1, 2, 3};
+  ros::Publisher inbox = s().nh.advertise<SharedScan>("inbox/scans", 10);
+  polls = 0;
+  EXPECT_TRUE(waitFor(
+      [&] {
+        if (polls++ % 20 == 0) inbox.publish(garbage);
+        return s().logged(rosgraph_msgs::Log::WARN, "dropping scan 0 of '" + s().peer + "'");
       },
       10.0));
 

@@ -31,7 +31,7 @@ using testing::waitFor;
 TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   ros::NodeHandle nh;
   ros::Publisher keyframes = nh.advertise<Keyframe>("keyframes", 500);
-  ros::Publisher peer_keyframes = nh.advertise<Keyframe>("inbox/scans", 500);
+  ros::Publisher peer_keyframes = nh.advertise<Keyframe>("teammate_scans", 500);
   ros::Publisher loops = nh.advertise<LoopClosure>("loop_closures", 500);
   TeamTransform::ConstPtr team;
   ros::Subscriber team_sub = nh.subscribe<TeamTransform>(
