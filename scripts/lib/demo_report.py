@@ -45,7 +45,6 @@ class Report:
         self.loop_latency_s = []
         self.keyframes = []
         self.features = 0
-        self.outbox_scans = []
         self.trajectory = None
         self.broker = None
         self.map = None
@@ -59,14 +58,13 @@ class Report:
         self.subs = [
             rospy.Subscriber("keyframes", Keyframe, self.on_keyframe, queue_size=100),
             rospy.Subscriber("outbox/features", KeyframeFeatures, self.on_features, queue_size=100),
-            rospy.Subscriber("outbox/scans", Keyframe, self.on_scan, queue_size=100),
             rospy.Subscriber("trajectory", Path, self.on_trajectory, queue_size=1),
             rospy.Subscriber("broker_stats", BrokerStats, self.on_broker, queue_size=1),
             rospy.Subscriber("map_stats", MapStats, self.on_map, queue_size=1),
             rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20),
             rospy.Subscriber("link_stats", LinkStats, self.on_link, queue_size=20),
             rospy.Subscriber("team_transforms", TeamTransform, self.on_team, queue_size=20),
-            rospy.Subscriber("inbox/scans", Keyframe, self.on_inbox_scan, queue_size=100),
+            rospy.Subscriber("teammate_scans", Keyframe, self.on_inbox_scan, queue_size=100),
             rospy.Subscriber("inbox/features", KeyframeFeatures, self.on_inbox_features,
                              queue_size=100),
             rospy.Subscriber("features", KeyframeFeatures, self.on_own_features, queue_size=100),
@@ -98,9 +96,6 @@ class Report:
 
     def on_features(self, msg):
         self.features += 1
-
-    def on_scan(self, msg):
-        self.outbox_scans.append(msg.id)
 
     def on_trajectory(self, msg):
         self.trajectory = msg
@@ -144,7 +139,7 @@ class Report:
                          for a, b in ((lo.x, hi.x), (lo.y, hi.y), (lo.z, hi.z)))
 
     def connected(self):
-        return all(s.get_num_connections() > 0 for s in self.subs[:3])
+        return all(s.get_num_connections() > 0 for s in self.subs[:2])
 
     def as_dict(self):
         spacing = [math.dist((a["x"], a["y"]), (b["x"], b["y"]))
@@ -155,11 +150,25 @@ class Report:
             "keyframe_spacing_m": {"mean": sum(spacing) / len(spacing) if spacing else 0.0,
                                    "min": min(spacing, default=0.0), "max": max(spacing, default=0.0)},
             "features_to_outbox": self.features,
-            "scans_to_outbox": self.outbox_scans,
             "trajectory_poses": len(self.trajectory.poses) if self.trajectory else 0,
             "broker": None if b is None else {
                 "mode": b.mode, "keyframes": b.keyframes, "features_sent": b.features_sent,
-                "scans_sent": b.scans_sent, "scan_bytes_sent": b.scan_bytes_sent},
+                "kept_scans": b.kept_scans, "scans_sent": b.scans_sent,
+                "scan_bytes_sent": b.scan_bytes_sent, "scans_received": b.scans_received,
+                "scan_bytes_received": b.scan_bytes_received,
+                "peers": {p.peer: {
+                    "offers_sent": p.offers_sent, "scans_offered": p.scans_offered,
+                    "offers_received": p.offers_received,
+                    "scans_in_offers_received": p.scans_in_offers_received,
+                    "scans_requested": p.scans_requested,
+                    "scans_requested_by_peer": p.scans_requested_by_peer,
+                    "scans_sent": p.scans_sent, "scan_bytes_sent": p.scan_bytes_sent,
+                    "scans_received": p.scans_received,
+                    "scan_bytes_received": p.scan_bytes_received,
+                    "receipts_sent": p.receipts_sent, "receipts_received": p.receipts_received,
+                    "control_bytes_sent": p.control_bytes_sent,
+                    "refused": dict(zip(p.refused_reasons, p.refused_counts))}
+                    for p in b.peers}},
             "map": None if self.map is None else {
                 "keyframes": self.map.keyframes, "known_volume_m3": self.map.known_volume_m3,
                 "entropy_bits": self.map.entropy_bits,
@@ -243,9 +252,10 @@ def main():
         lines.append("  %-13s %s" % (name, flow or "-"))
     sp = result["keyframe_spacing_m"]
     lines.append("keyframes: %d (spacing %.2f m mean, %.2f..%.2f m); features to outbox: %d; "
-                 "scans to outbox: %d; trajectory poses: %d"
+                 "scans sent: %d; trajectory poses: %d"
                  % (result["keyframes"], sp["mean"], sp["min"], sp["max"],
-                    result["features_to_outbox"], len(result["scans_to_outbox"]),
+                    result["features_to_outbox"],
+                    result["broker"]["scans_sent"] if result["broker"] else 0,
                     result["trajectory_poses"]))
     with open(args.out + "/summary.txt", "w") as f:
         f.write("\n".join(lines) + "\n")

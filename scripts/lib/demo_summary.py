@@ -77,7 +77,7 @@ def main():
             "features_to_outbox": report["features_to_outbox"],
             "word_sets": matcher.get("out features messages", 0),
             "own_loop_closures": matcher.get("out loop_closures (own) messages", 0),
-            "scans_to_outbox": len(report["scans_to_outbox"]), "map": report.get("map"),
+            "broker": report.get("broker") or {}, "map": report.get("map"),
             "team_loop_closures": matcher.get("out loop_closures (teammates) messages", 0),
             "inbox_scans": report.get("inbox_scans", 0),
             "inbox_features": report.get("inbox_features", 0),
@@ -115,14 +115,14 @@ def main():
         "robot", "path m", "shared", "scans", "keyframes", "spacing m", "word", "own", "features",
         "scans", "map", "entropy"))
     lines.append("  %-9s %7s %6s %6s %9s %12s %6s %6s %9s %7s %8s %9s" % (
-        "", "", "", "in", "", "mean", "sets", "loops", "outbox", "outbox", "known m3",
+        "", "", "", "in", "", "mean", "sets", "loops", "outbox", "sent", "known m3",
         "drop Mbit"))
     for r in robots:
         m = r["map"] or {}
         lines.append("  %-9s %7.1f %5.0f%% %6d %9d %12.2f %6d %6d %9d %7d %8.0f %9s" % (
             r["name"], r["distance_m"], 100 * r["shared_fraction"], r["scans_in"], r["keyframes"],
             r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
-            r["features_to_outbox"], r["scans_to_outbox"], m.get("known_volume_m3", 0),
+            r["features_to_outbox"], r["broker"].get("scans_sent", 0), m.get("known_volume_m3", 0),
             "-" if not m else "%.2f" % (m["entropy_drop_bits"] / 1e6)))
     lines.append("  bridges (budget 150 KB/s per robot):")
     lines.append("  %-9s %-9s %9s %9s %9s %9s %7s %6s" % (
@@ -137,6 +137,18 @@ def main():
         lines.append("  %-9s received %d word sets and %d scans from teammates; %d inter-robot "
                      "loop closures" % (r["name"], r["inbox_features"], r["inbox_scans"],
                                         r["team_loop_closures"]))
+        for peer, p in sorted(r["broker"].get("peers", {}).items()):
+            if not peer:
+                continue
+            refused = ", ".join("%s %d" % kv for kv in sorted(p["refused"].items()))
+            lines.append("  %-9s %s: offered %d scans in %d offers, %d requested, sent %d "
+                         "(%.0f KB); was offered %d, requested %d, received %d (%.0f KB)%s" % (
+                             r["name"], peer, p["scans_offered"], p["offers_sent"],
+                             p["scans_requested_by_peer"], p["scans_sent"],
+                             p["scan_bytes_sent"] / 1e3, p["scans_in_offers_received"],
+                             p["scans_requested"], p["scans_received"],
+                             p["scan_bytes_received"] / 1e3,
+                             "; refused: " + refused if refused else ""))
         for t in r["team_frames"]:
             if "error_m" in t:
                 lines.append("  %-9s knows %s's map frame from %d of %d loop closures: %.2f m, "

@@ -276,7 +276,7 @@ class BrokerNodelet final : public PipelineNodelet {
         return m.simulatedCsqmi(team->second * scan.pose);
       });
     };
-    for (const auto& request : broker_->chooseRequests(information)) {
+    for (const auto& request : broker_->chooseRequests(information, now)) {
       publishControl(request.provider, outboxes_.at(request.provider).requests,
                      conversions::toRequestMsg(request));
     }

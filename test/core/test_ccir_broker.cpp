@@ -314,7 +314,7 @@ TEST_F(Requester, RequestsAreASubsetOfTheOffersWithinWhatTheLinksCarry) {
   b.setLink("robot_c", link(150000.0));
   ASSERT_TRUE(b.onOffer(offer("robot_a", {{0, 1}, {1, 9}, {2, 4}}, 5)));
   ASSERT_TRUE(b.onOffer(offer("robot_c", {{7, 3}, {8, 12}})));
-  const auto requests = b.chooseRequests(noInformation);
+  const auto requests = b.chooseRequests(noInformation, 0.0);
   // 75 KB per link and period (two links share 150 KB/s): one scan from each, the best c_k.
   ASSERT_EQ(requests.size(), 2u);
   EXPECT_EQ(requests[0].provider, "robot_a");
@@ -322,7 +322,7 @@ TEST_F(Requester, RequestsAreASubsetOfTheOffersWithinWhatTheLinksCarry) {
   EXPECT_EQ(requests[0].offer_sequence, 5u);
   EXPECT_EQ(requests[0].ids, (std::vector<KeyframeId>{1}));
   EXPECT_EQ(requests[1].ids, (std::vector<KeyframeId>{8}));
-  EXPECT_TRUE(b.chooseRequests(noInformation).empty()) << "each offer is answered once";
+  EXPECT_TRUE(b.chooseRequests(noInformation, 0.0).empty()) << "each offer is answered once";
 }
 
 TEST_F(Requester, AKnownTransformLetsTheOwnMapsInformationChoose) {
@@ -331,10 +331,12 @@ TEST_F(Requester, AKnownTransformLetsTheOwnMapsInformationChoose) {
   r.setTransformKnown("robot_a", true);
   ASSERT_TRUE(r.onOffer(offer("robot_a", {{0, 5}, {1, 5}, {2, 5}})));
   // Equal c_k: the scan whose simulated view the own map knows least wins.
-  const auto requests = r.chooseRequests([](const std::string& provider, const OfferEntry& e) {
-    EXPECT_EQ(provider, "robot_a");
-    return e.id == 2 ? 300.0 : e.id == 0 ? 100.0 : 10.0;
-  });
+  const auto requests = r.chooseRequests(
+      [](const std::string& provider, const OfferEntry& e) {
+        EXPECT_EQ(provider, "robot_a");
+        return e.id == 2 ? 300.0 : e.id == 0 ? 100.0 : 10.0;
+      },
+      0.0);
   ASSERT_EQ(requests.size(), 1u);
   EXPECT_EQ(requests[0].ids, (std::vector<KeyframeId>{2, 0}));
 }
@@ -365,9 +367,19 @@ TEST_F(Requester, MalformedOffersAreRefusedAndDuplicatesNotAcknowledgedTwice) {
   // A scan already received is not requested again.
   b.setLink("robot_a", link());
   ASSERT_TRUE(b.onOffer(offer("robot_a", {{4, 9}, {5, 1}})));
-  const auto requests = b.chooseRequests(noInformation);
+  const auto requests = b.chooseRequests(noInformation, 0.0);
   ASSERT_EQ(requests.size(), 1u);
   EXPECT_EQ(requests[0].ids, (std::vector<KeyframeId>{5}));
+}
+
+TEST_F(Requester, AScanOnItsWayIsNotRequestedAgainUntilTheReceiptTimeout) {
+  b.setLink("robot_a", link());
+  ASSERT_TRUE(b.onOffer(offer("robot_a", {{3, 5}}, 1)));
+  ASSERT_EQ(b.chooseRequests(noInformation, 0.0).size(), 1u);
+  ASSERT_TRUE(b.onOffer(offer("robot_a", {{3, 5}}, 2)));  // offered again before it arrived
+  EXPECT_TRUE(b.chooseRequests(noInformation, 1.0).empty());
+  ASSERT_TRUE(b.onOffer(offer("robot_a", {{3, 5}}, 3)));
+  EXPECT_EQ(b.chooseRequests(noInformation, 61.0).size(), 1u) << "lost on the way: asked again";
 }
 
 TEST(CcirScenario, TwoRobotsExchangeEachPlaceOnceUnderTheBudget) {
@@ -383,7 +395,7 @@ TEST(CcirScenario, TwoRobotsExchangeEachPlaceOnceUnderTheBudget) {
     a.setLink("robot_b", link(60000.0));  // one scan a period
     b.setLink("robot_a", link(60000.0));
     if (const auto offer = a.makeOffer("robot_b", double(id))) ASSERT_TRUE(b.onOffer(*offer));
-    for (const auto& request : b.chooseRequests(Requester::noInformation)) {
+    for (const auto& request : b.chooseRequests(Requester::noInformation, double(id))) {
       for (const KeyframeId sent : a.onRequest(request, double(id)).send) {
         EXPECT_TRUE(b.onScanReceived("robot_a", sent, kScanBytes));
         delivered.push_back(sent);

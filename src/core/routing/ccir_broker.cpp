@@ -336,7 +336,7 @@ bool CcirBroker::onOffer(const Offer& offer, std::string* reason) {
   return true;
 }
 
-std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information) {
+std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information, double now_s) {
   struct Scored {
     std::string provider;
     const OfferEntry* entry;
@@ -349,6 +349,10 @@ std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information) 
     if (!peer.pending_offer) continue;
     for (const auto& entry : peer.pending_offer->scans) {
       if (peer.received.count(entry.id)) continue;
+      const auto asked = peer.requested.find(entry.id);
+      if (asked != peer.requested.end() && now_s - asked->second < params_.receipt_timeout_s) {
+        continue;
+      }
       const double csqmi = peer.transform_known ? std::max(0.0, information(name, entry)) : 0.0;
       scored.push_back({name, &entry, csqmi, 0.0});
       c_max = std::max(c_max, double(entry.correspondences));
@@ -391,6 +395,7 @@ std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information) 
     request.provider = s.provider;
     request.offer_sequence = peer.pending_offer->sequence;
     request.ids.push_back(s.entry->id);
+    peers_.at(s.provider).requested[s.entry->id] = now_s;
   }
   std::vector<Request> result;
   for (auto& [name, request] : requests) {
@@ -410,6 +415,7 @@ bool CcirBroker::onScanReceived(const std::string& provider, KeyframeId id,
     refuse(provider, "unknown_robot");
     return false;
   }
+  peer->requested.erase(id);
   if (!peer->received.insert(id).second) {
     refuse(provider, "duplicate_scan");
     return false;

@@ -98,8 +98,9 @@ class CcirBroker {
   /// The information (CSQMI) of an offered scan for this robot; asked only for providers whose
   /// transform is known.
   using OfferScorer = std::function<double(const std::string& provider, const OfferEntry& scan)>;
-  /// Requests for the offers received since the last call.
-  std::vector<Request> chooseRequests(const OfferScorer& information);
+  /// Requests for the offers received since the last call. A scan requested less than
+  /// receipt_timeout_s ago is not requested again (it may be on its way).
+  std::vector<Request> chooseRequests(const OfferScorer& information, double now_s);
   /// A scan from a teammate; false for one received before (a duplicate, not acknowledged
   /// again) or from a stranger.
   bool onScanReceived(const std::string& provider, KeyframeId id, std::size_t size_bytes);
@@ -139,6 +140,7 @@ class CcirBroker {
     // Requester side.
     std::optional<Offer> pending_offer;
     std::set<KeyframeId> received;
+    std::map<KeyframeId, double> requested;  // when
     std::vector<KeyframeId> to_acknowledge;
   };
 

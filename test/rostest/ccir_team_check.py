@@ -1,0 +1,205 @@
+#!/usr/bin/env python3
+"""CCIR between robots on separate ROS masters, as in the field: two, then three robots of the
+fixture mission, each its whole pipeline (launch/robot.launch, broker mode ccir) on its own
+master, their bridges linked over loopback, each fed its own bag at half speed. Offers,
+requests, scans and receipts must flow between every pair both ways, no scan may arrive twice,
+nothing may be refused but the benign, and no window on any link may carry more than
+burst + rate * its length."""
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+import unittest
+
+import rosgraph
+import rospy
+import rosunit
+import yaml
+
+TEAM_KEY = "ccir-team-test-team-key"
+BUDGET = 150000.0
+BURST = 131072
+# Frames of a fragment (64 KB + header and MAC) may complete a window's count.
+SLACK = 65536 + 100
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class CcirTeam(unittest.TestCase):
+    def setUp(self):
+        self.mission = rospy.get_param("~mission")
+        self.dir = tempfile.mkdtemp(prefix="ccir_team_")
+        self.processes = []
+
+    def tearDown(self):
+        self.stop_all()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def stop_all(self):
+        for process in reversed(self.processes):
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGINT)
+        for process in reversed(self.processes):
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+        self.processes = []
+
+    def env(self, port):
+        env = dict(os.environ, ROS_IP="127.0.0.1", ROS_MASTER_URI="http://127.0.0.1:%d" % port,
+                   PYTHONUNBUFFERED="1", ROS_LOG_DIR=os.path.join(self.dir, "log"))
+        env.pop("ROS_HOSTNAME", None)
+        return env
+
+    def spawn(self, name, command, port, out=None):
+        log = open(out or os.path.join(self.dir, name + ".log"), "w")
+        process = subprocess.Popen(command, env=self.env(port), stdout=log,
+                                   stderr=subprocess.STDOUT, start_new_session=True)
+        self.processes.append(process)
+        return process
+
+    def latest(self, topic, port):
+        """The next message on a topic of one master, as a dict (None if none in 10 s)."""
+        result = subprocess.run(["rostopic", "echo", "-n", "1", topic], env=self.env(port),
+                                capture_output=True, text=True, timeout=30)
+        text = result.stdout.split("\n---")[0]
+        try:
+            return yaml.safe_load(text) if text.strip() else None
+        except yaml.YAMLError:
+            return None
+
+    def wait_for(self, condition, timeout_s, what):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if condition():
+                return
+            time.sleep(0.5)
+        self.fail("%s within %.0f s" % (what, timeout_s))
+
+    def run_team(self, robots):
+        run = os.path.join(self.dir, "%d_robots" % len(robots))
+        os.makedirs(run)
+        master = {r: free_port() for r in robots}
+        listen = {r: free_port() for r in robots}
+        for robot, port in master.items():
+            self.spawn("master_" + robot, ["rosmaster", "--core", "-p", str(port)], port)
+        for robot, port in master.items():
+            online = rosgraph.Master("/ccir_team", "http://127.0.0.1:%d" % port).is_online
+            self.wait_for(online, 30, "the master of " + robot)
+        for robot in robots:
+            config = os.path.join(run, robot + ".yaml")
+            peers = ", ".join("{name: %s, host: 127.0.0.1, port: %d}" % (p, listen[p])
+                              for p in robots if p != robot)
+            with open(config, "w") as f:
+                f.write("broker: {mode: ccir, stats_period_s: 0.5}\n"
+                        "bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
+                        "  total_budget_bytes_per_s: %f\n  burst_bytes: %d\n"
+                        "  reconnect_min_s: 0.2\n  stats_period_s: 0.2\n  peers: [%s]\n"
+                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, peers))
+            self.spawn("pipeline_" + robot, ["roslaunch", "ccir_mapping", "robot.launch",
+                                             "robot:=" + robot, "use_sim_time:=true",
+                                             "overrides:=" + config], master[robot])
+            self.spawn("link_" + robot, ["rostopic", "echo", "-p", "/link_stats"], master[robot],
+                       out=os.path.join(run, robot + "_links.csv"))
+
+        def linked():
+            for robot in robots:
+                stats = self.latest("/link_stats", master[robot])
+                if not stats or not stats["connected"]:
+                    return False
+            return True
+        self.wait_for(linked, 120, "every robot's links came up")
+        # At half speed so that three pipelines keep up on a slow two-core machine (rates follow
+        # mission time, so the outcome does not depend on the speed).
+        players = [self.spawn("play_" + robot,
+                              ["rosbag", "play", "--clock", "--quiet", "--wait-for-subscribers",
+                               "-r", "0.5", os.path.join(self.mission, robot + ".bag"),
+                               "--topics", "/velodyne_points", "/odom", "/tf", "/tf_static"],
+                              master[robot]) for robot in robots]
+        for player in players:
+            player.wait(timeout=600)
+            self.assertEqual(player.returncode, 0, "rosbag play failed")
+
+        def routing(robot):
+            stats = self.latest("/broker_stats", master[robot])
+            return {p["peer"]: p for p in (stats or {}).get("peers", [])}, stats
+
+        def flowed():
+            for robot in robots:
+                peers, _ = routing(robot)
+                for other in robots:
+                    if other == robot:
+                        continue
+                    p = peers.get(other)
+                    if not p or not (p["offers_sent"] and p["offers_received"] and
+                                     p["scans_sent"] and p["scans_received"] and
+                                     p["receipts_received"]):
+                        return False
+            return True
+        # Queues drain on the wall clock after the replay: generous.
+        self.wait_for(flowed, 240, "offers, requests, scans and receipts between every pair")
+        for robot in robots:
+            peers, stats = routing(robot)
+            self.assertEqual(stats["mode"], "ccir")
+            for other in robots:
+                if other == robot:
+                    continue
+                p = peers[other]
+                refused = dict(zip(p["refused_reasons"] or [], p["refused_counts"] or []))
+                print("%s -> %s: offered %d, requested of it %d, sent %d (%d B); received %d; "
+                      "refused %s" % (robot, other, p["scans_offered"], p["scans_requested_by_peer"],
+                                      p["scans_sent"], p["scan_bytes_sent"], p["scans_received"],
+                                      refused))
+                # Requested <= offered; sent <= requested.
+                self.assertLessEqual(p["scans_requested_by_peer"], p["scans_offered"])
+                self.assertLessEqual(p["scans_sent"], p["scans_requested_by_peer"])
+                for reason in ("duplicate_scan", "undecodable_scan", "malformed_offer",
+                               "not_for_this_robot", "unknown_robot", "oversized",
+                               "not_offered", "receipt_for_unsent"):
+                    self.assertNotIn(reason, refused, "%s refused from %s" % (robot, other))
+                # Each scan in wire form: well under 100 KB.
+                self.assertLess(p["scan_bytes_sent"] / max(1, p["scans_sent"]), 100000)
+            self.assertNotIn("", peers, "a stranger's messages reached " + robot)
+        self.stop_all()
+        self.check_budget(run, robots)
+
+    def check_budget(self, run, robots):
+        """Bytes sent between any two link reports of the replay <= burst + rate * dt."""
+        import csv
+        for robot in robots:
+            with open(os.path.join(run, robot + "_links.csv")) as f:
+                lines = [line for line in f if not line.startswith("WARNING")]
+            by_peer = {}
+            for r in csv.DictReader(lines):
+                if None in r or None in r.values():
+                    continue
+                by_peer.setdefault(r["field.peer"], []).append(
+                    (int(r["field.header.stamp"]) * 1e-9, int(r["field.bytes_sent"])))
+            self.assertEqual(len(by_peer), len(robots) - 1)
+            for peer, samples in by_peer.items():
+                # Mission-time stamps increase during the replay; after it they stand still.
+                replay = [s for s, n in zip(samples, samples[1:]) if n[0] > s[0]]
+                self.assertGreater(len(replay), 20)
+                worst = max((b1 - b0) - (BURST + BUDGET * (t1 - t0))
+                            for i, (t0, b0) in enumerate(replay) for (t1, b1) in replay[i + 1:])
+                self.assertLessEqual(worst, SLACK, "%s -> %s exceeded its budget by %d bytes"
+                                     % (robot, peer, worst))
+
+    def test_two_robots(self):
+        self.run_team(["robot_a", "robot_b"])
+
+    def test_three_robots(self):
+        self.run_team(["robot_a", "robot_b", "robot_c"])
+
+
+if __name__ == "__main__":
+    rospy.init_node("ccir_team_check", anonymous=True)
+    rosunit.unitrun("ccir_mapping", "ccir_team", CcirTeam)
