@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """CCIR between robots on separate ROS masters, as in the field: two, then three robots of the
 fixture mission, each its whole pipeline (launch/robot.launch, broker mode ccir) on its own
-master, their bridges linked over loopback, each fed its own bag at half speed. Offers,
+master, their bridges linked over loopback, each fed its own bag at 0.3 x. Offers,
 requests, scans and receipts must flow between every pair both ways, no scan may arrive twice,
 nothing may be refused but the benign, and no window on any link may carry more than
 burst + rate * its length."""
@@ -117,11 +117,11 @@ class CcirTeam(unittest.TestCase):
                     return False
             return True
         self.wait_for(linked, 120, "every robot's links came up")
-        # At half speed so that three pipelines keep up on a slow two-core machine (rates follow
+        # At 0.3 x so that three pipelines keep up on a slow two-core machine (rates follow
         # mission time, so the outcome does not depend on the speed).
         players = [self.spawn("play_" + robot,
                               ["rosbag", "play", "--clock", "--quiet", "--wait-for-subscribers",
-                               "-r", "0.5", os.path.join(self.mission, robot + ".bag"),
+                               "-r", "0.3", os.path.join(self.mission, robot + ".bag"),
                                "--topics", "/velodyne_points", "/odom", "/tf", "/tf_static"],
                               master[robot]) for robot in robots]
         for player in players:
