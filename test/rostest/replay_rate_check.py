@@ -21,7 +21,9 @@ import rospy
 import rosunit
 
 TEAM_KEY = "replay-rate-test-team-key"
-BUDGET = 150000.0
+# Below what every keyframe in wire form needs (~60 KB a second), so the link is saturated.
+BUDGET = 20000.0
+BURST = 16384
 
 
 def free_port():
@@ -94,14 +96,14 @@ class ReplayRate(unittest.TestCase):
         for robot, peer in (("robot_a", "robot_b"), ("robot_b", "robot_a")):
             configs[robot] = os.path.join(run, robot + ".yaml")
             with open(configs[robot], "w") as f:
-                # Small fragments and frequent reports: bytes sent by a mission instant are
-                # then known to a few KB (with 64 KB fragments, to a sixth of a second's budget).
+                # Small fragments (a tenth of a second's budget), reports every mission
+                # second: each report's rate is then the budget's to a few percent.
                 f.write("broker: {mode: fixed_rate, fixed_rate_every_n: 1}\n"
                         "bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
                         "  total_budget_bytes_per_s: %f\n  reconnect_min_s: 0.2\n"
-                        "  fragment_bytes: 8192\n  stats_period_s: 0.1\n"
+                        "  fragment_bytes: 2048\n  burst_bytes: %d\n  stats_period_s: 1.0\n"
                         "  peers: [{name: %s, host: 127.0.0.1, port: %d}]\n"
-                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, peer, listen[peer]))
+                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, peer, listen[peer]))
         a, b = master["robot_a"], master["robot_b"]
         self.spawn("pipeline_a", ["roslaunch", "ccir_mapping", "robot.launch", "robot:=robot_a",
                                   "use_sim_time:=true", "overrides:=" + configs["robot_a"]], a)
@@ -148,7 +150,7 @@ class ReplayRate(unittest.TestCase):
         # LinkStats' own rate is per second of the bridge's clock too.
         reported = sorted(float(r["field.send_rate_bytes_per_s"]) for r in rows(link_csv)
                           if t0 <= int(r["field.header.stamp"]) * 1e-9 <= t1)
-        self.assertGreater(len(reported), 10)
+        self.assertGreater(len(reported), 4)
         median = reported[len(reported) // 2]
         self.assertLess(abs(median - BUDGET), 0.2 * BUDGET,
                         "send_rate_bytes_per_s %.0f at %sx" % (median, rate))
