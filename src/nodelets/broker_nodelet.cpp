@@ -62,8 +62,8 @@ class BrokerNodelet final : public PipelineNodelet {
       out.offers = nh.advertise<ScanOffer>(topics::outboxTo(peer.name, "offers"), 50);
       out.requests = nh.advertise<ScanRequest>(topics::outboxTo(peer.name, "requests"), 50);
       out.receipts = nh.advertise<ScanReceipt>(topics::outboxTo(peer.name, "receipts"), 50);
-      out.scans =
-          nh.advertise<SharedScan>(topics::outboxTo(peer.name, "scans"), topics::kKeyframeQueueSize);
+      out.scans = nh.advertise<SharedScan>(topics::outboxTo(peer.name, "scans"),
+                                           topics::kKeyframeQueueSize);
     }
     broker_ =
         std::make_unique<routing::CcirBroker>(settings_.frames.robot_name, peers, settings_.core);
@@ -89,7 +89,8 @@ class BrokerNodelet final : public PipelineNodelet {
     subscribe(topics::kInboxReceipts, &BrokerNodelet::onReceipt);
     subscribe(topics::kInboxScans, &BrokerNodelet::onScan, topics::kKeyframeQueueSize);
 
-    createPeriodicTimer(settings_.core.offer_period_s, [this] { measured("route", [this] { route(); }); });
+    createPeriodicTimer(settings_.core.offer_period_s,
+                        [this] { measured("route", [this] { route(); }); });
     createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<BrokerConfig>>(
         reconfigure_mutex_, getPrivateNodeHandle());
@@ -97,7 +98,8 @@ class BrokerNodelet final : public PipelineNodelet {
   }
 
   template <class M>
-  void subscribe(const char* topic, void (BrokerNodelet::*callback)(const boost::shared_ptr<M const>&),
+  void subscribe(const char* topic,
+                 void (BrokerNodelet::*callback)(const boost::shared_ptr<M const>&),
                  int queue = topics::kMessageQueueSize) {
     subs_.push_back(getNodeHandle().subscribe<M>(topic, queue, callback, this));
   }
@@ -131,8 +133,9 @@ class BrokerNodelet final : public PipelineNodelet {
     auto footprint = measured("footprint", [&] {
       return routing::CcirBroker::footprint(*footprint_map_, points, broker_->placeOwn(*odom_pose));
     });
-    for (const auto id : broker_->addKeyframe(keyframe->id, conversions::toStamp(keyframe->header.stamp),
-                                              *odom_pose, bytes, std::move(footprint))) {
+    for (const auto id :
+         broker_->addKeyframe(keyframe->id, conversions::toStamp(keyframe->header.stamp),
+                              *odom_pose, bytes, std::move(footprint))) {
       kept_.erase(id);
     }
     kept_[keyframe->id] = shared;
@@ -157,7 +160,8 @@ class BrokerNodelet final : public PipelineNodelet {
     count("in correspondences");
     std::lock_guard<std::mutex> lock(mutex_);
     for (std::size_t i = 0; i < std::min(msg->keyframe_ids.size(), msg->counts.size()); ++i) {
-      broker_->setCorrespondences(msg->peer, msg->keyframe_ids[i], static_cast<int>(msg->counts[i]));
+      broker_->setCorrespondences(msg->peer, msg->keyframe_ids[i],
+                                  static_cast<int>(msg->counts[i]));
     }
   }
 
@@ -251,7 +255,8 @@ class BrokerNodelet final : public PipelineNodelet {
                             error->c_str());
       return;
     }
-    if (!broker_->onScanReceived(msg->robot, msg->id, ros::serialization::serializationLength(*msg))) {
+    if (!broker_->onScanReceived(msg->robot, msg->id,
+                                 ros::serialization::serializationLength(*msg))) {
       return;  // a duplicate or a stranger's: counted
     }
     ++scans_received_;
@@ -265,7 +270,8 @@ class BrokerNodelet final : public PipelineNodelet {
     const double now = clockNow();
     for (auto& [peer, out] : outboxes_) {
       if (const auto offer = broker_->makeOffer(peer, now)) {
-        publishControl(peer, out.offers, conversions::toOfferMsg(*offer, settings_.frames.map_frame));
+        publishControl(peer, out.offers,
+                       conversions::toOfferMsg(*offer, settings_.frames.map_frame));
       }
     }
     const auto map = core::information::SharedMap::find(settings_.frames.robot_name);

@@ -53,7 +53,7 @@ class MapperNodelet final : public PipelineNodelet {
     keyframe_sub_ = nh.subscribe(topics::kKeyframes, topics::kKeyframeQueueSize,
                                  &MapperNodelet::onKeyframe, this);
     teammate_scans_sub_ = nh.subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize,
-                                    &MapperNodelet::onPeerScan, this);
+                                       &MapperNodelet::onPeerScan, this);
     trajectory_sub_ = nh.subscribe(topics::kTrajectory, topics::kLatestOnlyQueueSize,
                                    &MapperNodelet::onTrajectory, this);
     team_sub_ = nh.subscribe(topics::kTeamTransforms, topics::kMessageQueueSize,

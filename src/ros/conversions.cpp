@@ -256,7 +256,8 @@ std::optional<std::string> toOffer(const ScanOffer& msg, core::routing::Offer* o
   out->scans.clear();
   for (const auto& scan : msg.scans) {
     const auto pose = toPose(scan.pose);
-    if (!pose) return "the pose of offered keyframe " + std::to_string(scan.keyframe_id) + " is not valid";
+    if (!pose)
+      return "the pose of offered keyframe " + std::to_string(scan.keyframe_id) + " is not valid";
     core::routing::OfferEntry entry;
     entry.id = scan.keyframe_id;
     entry.pose = *pose;

@@ -2,8 +2,11 @@
 // voxel keyframes, as the Preprocessor makes them), at the map's resolution: ms per keyframe
 // insertion, per mutual-information evaluation of a keyframe (CSQMI of its beams) and of a
 // simulated measurement, per entropy-drop evaluation; then ms to rank N of L keyframes against
-// a map holding a few of them, naive and lazy, and whether both choose the same keyframes.
-// Prints JSON. Targets: MI <= 10 ms per scan, lazy ranking <= 200 ms.
+// a map holding a few of them, naive and lazy, and whether both choose the same keyframes; then
+// CCIR's costs with all of them kept: ms to build one offer for each of two teammates (one of
+// which holds a part already) and to choose the requests for an offer (CSQMI of each offered
+// scan on the map). Prints JSON. Targets: MI <= 10 ms per scan, lazy ranking <= 200 ms, an offer
+// <= 100 ms with 500 kept keyframes and 2 peers, requests <= 50 ms.
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -14,6 +17,7 @@
 #include "ccir_mapping/core/information/occupancy_map.h"
 #include "ccir_mapping/core/information/scan_ranker.h"
 #include "ccir_mapping/core/preprocess/voxel_downsample.h"
+#include "ccir_mapping/core/routing/ccir_broker.h"
 #include "ccir_mapping/core/simulation/lidar_model.h"
 #include "ccir_mapping/core/simulation/world_builder.h"
 
@@ -152,6 +156,67 @@ int main(int argc, char** argv) {
   bool same = naive.size() == lazy.size();
   for (std::size_t i = 0; same && i < naive.size(); ++i) same = naive[i].index == lazy[i].index;
 
+  // CCIR: every keyframe kept with its footprint; teammate robot_c already holds the first
+  // quarter.
+  core::routing::CcirBroker broker("robot_a", {"robot_b", "robot_c"},
+                                   core::routing::BrokerParams{});
+  const info::OccupancyMap empty(params);
+  double footprint_ms = 0;
+  for (int i = 0; i < held + candidates; ++i) {
+    pcl::PointCloud<pcl::PointXYZ> sensor;
+    const core::Pose3 to_sensor = frames[i].pose.inverse();
+    for (const auto& p : frames[i].world_points) {
+      const Eigen::Vector3d q = to_sensor * p.getVector3fMap().cast<double>();
+      sensor.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+    }
+    start = std::chrono::steady_clock::now();
+    auto footprint = core::routing::CcirBroker::footprint(empty, sensor, frames[i].pose);
+    footprint_ms += millisecondsSince(start);
+    broker.addKeyframe(i, i, frames[i].pose, 60000, std::move(footprint));
+    broker.setCorrespondences("robot_b", i, i % 7);
+  }
+  const core::routing::LinkState link{true, 150000.0, 300000.0, 0};
+  broker.setLink("robot_c", link);
+  const auto first = broker.makeOffer("robot_c", 0.0);
+  core::routing::Request take{"robot_c", "robot_a", first->sequence, {}};
+  for (int round = 0; round < (held + candidates) / 4 && first; ++round) {
+    broker.setLink("robot_c", link);
+    const auto offer = broker.makeOffer("robot_c", 0.0);
+    if (!offer) break;
+    take.offer_sequence = offer->sequence;
+    take.ids = {offer->scans.front().id};
+    broker.onRequest(take, 0.0);
+  }
+  double offer_ms = 0;
+  std::size_t offered = 0;
+  for (const char* peer : {"robot_b", "robot_c"}) {
+    broker.setLink(peer, link);
+    start = std::chrono::steady_clock::now();
+    const auto offer = broker.makeOffer(peer, 1.0);
+    offer_ms += millisecondsSince(start);
+    offered += offer ? offer->scans.size() : 0;
+  }
+  core::routing::CcirBroker requester("robot_b", {"robot_a"}, core::routing::BrokerParams{});
+  requester.setLink("robot_a", link);
+  requester.setTransformKnown("robot_a", true);
+  core::routing::Offer offer{"robot_a", "robot_b", 1, {}};
+  for (int i = 0; i < 10; ++i) {
+    core::routing::OfferEntry entry;
+    entry.id = i;
+    entry.pose = frames[held + i].pose;
+    entry.correspondences = i;
+    entry.size_bytes = 60000;
+    offer.scans.push_back(entry);
+  }
+  requester.onOffer(offer);
+  start = std::chrono::steady_clock::now();
+  const auto requests = requester.chooseRequests(
+      [&](const std::string&, const core::routing::OfferEntry& e) {
+        return map.simulatedCsqmi(e.pose);
+      },
+      0.0);
+  const double requests_ms = millisecondsSince(start);
+
   const double n = candidates;
   std::printf(
       "{\n  \"benchmark\": \"information\",\n  \"resolution_m\": %.2f,\n"
@@ -161,13 +226,19 @@ int main(int argc, char** argv) {
       "  \"voxel_gains_ms_per_keyframe\": %.1f,\n  \"blocks_per_keyframe\": %.0f,\n"
       "  \"rank\": {\"choose\": %d, \"of\": %d, \"naive_ms\": %.1f, \"lazy_ms\": %.1f, "
       "\"lazy_target_ms\": 200, \"speedup\": %.1f, \"naive_evaluations\": %zu, "
-      "\"lazy_evaluations\": %zu, \"same_choice\": %s}\n}\n",
+      "\"lazy_evaluations\": %zu, \"same_choice\": %s},\n"
+      "  \"routing\": {\"kept\": %d, \"peers\": 2, \"footprint_ms_per_keyframe\": %.1f, "
+      "\"offer_ms_per_peer\": %.1f, \"offer_target_ms\": 100, \"scans_offered\": %zu, "
+      "\"requests_ms\": %.1f, \"requests_target_ms\": 50, \"offered_to_requester\": %zu, "
+      "\"requested\": %zu}\n}\n",
       params.resolution_m, held ? double(points) / held : 0.0, held ? insert_ms / held : 0.0,
       scan_mi_ms / n,
       frames[held].world_points.size() / static_cast<std::size_t>(params.scan_beam_step),
       simulated_mi_ms / n,
       static_cast<int>(16 * std::ceil(360 / params.simulated_azimuth_step_deg)), gains_ms / n,
       voxels / n, choose, candidates, naive_ms, lazy_ms, naive_ms / lazy_ms, naive_evaluations,
-      ranker.evaluations(), same ? "true" : "false");
+      ranker.evaluations(), same ? "true" : "false", held + candidates,
+      footprint_ms / (held + candidates), offer_ms / 2, offered, requests_ms, offer.scans.size(),
+      requests.empty() ? std::size_t{0} : requests.front().ids.size());
   return same ? 0 : 1;
 }

@@ -165,7 +165,8 @@ TEST_F(Provider, WithAnUnknownTransformHighCorrespondenceScansRankFirst) {
 
 TEST_F(Provider, PoseUncertaintyWeighsTheLoopClosureUtilityOnceTheTransformIsKnown) {
   CcirBroker b("robot_a", {"robot_b"}, params(1.0));  // lambda 1: F alone
-  for (KeyframeId id = 0; id < 3; ++id) b.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, kPlaceA());
+  for (KeyframeId id = 0; id < 3; ++id)
+    b.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, kPlaceA());
   for (KeyframeId id = 0; id < 3; ++id) b.setCorrespondences("robot_b", id, 10);
   b.setUncertainty(0, 0.01);
   b.setUncertainty(1, 0.50);
@@ -210,10 +211,16 @@ TEST_F(Provider, MalformedRequestsAndReceiptsAreRefusedAndCounted) {
   a.setLink("robot_b", link(50000.0));
   const auto offer = a.makeOffer("robot_b", 0.0);  // {0}
   ASSERT_EQ(ids(*offer), (std::vector<KeyframeId>{0}));
-  EXPECT_EQ(a.onRequest({"robot_x", "robot_a", offer->sequence, {0}}, 0.0).refused.count("unknown_robot"), 1u);
-  EXPECT_EQ(a.onRequest({"robot_b", "robot_c", offer->sequence, {0}}, 0.0).refused.count("not_for_this_robot"), 1u);
+  EXPECT_EQ(
+      a.onRequest({"robot_x", "robot_a", offer->sequence, {0}}, 0.0).refused.count("unknown_robot"),
+      1u);
+  EXPECT_EQ(a.onRequest({"robot_b", "robot_c", offer->sequence, {0}}, 0.0)
+                .refused.count("not_for_this_robot"),
+            1u);
   EXPECT_EQ(a.onRequest({"robot_b", "robot_a", 77, {0}}, 0.0).refused.count("stale_offer"), 1u);
-  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", offer->sequence, {0, 0, 0}}, 0.0).refused.count("oversized"), 1u);
+  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", offer->sequence, {0, 0, 0}}, 0.0)
+                .refused.count("oversized"),
+            1u);
   const auto not_offered = a.onRequest({"robot_b", "robot_a", offer->sequence, {1}}, 0.0);
   EXPECT_TRUE(not_offered.send.empty());
   EXPECT_EQ(not_offered.refused.at("not_offered"), 1);
@@ -240,7 +247,8 @@ TEST_F(Provider, ARequestForAnEvictedScanIsRefused) {
   b.setLink("robot_b", link(50000.0));
   const auto offer = b.makeOffer("robot_b", 0.0);
   ASSERT_EQ(ids(*offer), (std::vector<KeyframeId>{0}));
-  EXPECT_EQ(b.addKeyframe(2, Stamp(2), Pose3::Identity(), kScanBytes, kPlaceC()), (std::vector<KeyframeId>{0}));
+  EXPECT_EQ(b.addKeyframe(2, Stamp(2), Pose3::Identity(), kScanBytes, kPlaceC()),
+            (std::vector<KeyframeId>{0}));
   EXPECT_EQ(b.keptScans(), 2u);
   const auto outcome = b.onRequest({"robot_b", "robot_a", offer->sequence, {0}}, 0.0);
   EXPECT_TRUE(outcome.send.empty());

@@ -200,7 +200,7 @@ TEST_F(PlaceMatcherTest, NewOwnKeyframesGetTheirCorrespondencesWithKeptTeammateW
   matcher.keepTeammateWords("robot_b", 5, {1, 2, 3, 4, 5, 7});
   matcher.keepTeammateWords("robot_b", 6, {1, 3, 5, 7, 9, 11, 12});
   matcher.keepTeammateWords("robot_b", 7, {11, 13, 100});  // 11 and 13 shared
-  matcher.keepTeammateWords("robot_c", 1, {1, 3, 200});   // 2 shared: below the minimum
+  matcher.keepTeammateWords("robot_c", 1, {1, 3, 200});    // 2 shared: below the minimum
   const auto result = matcher.teammateCorrespondences(own);
   ASSERT_EQ(result.size(), 1U);
   EXPECT_EQ(result[0].robot, "robot_b");

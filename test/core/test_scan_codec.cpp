@@ -121,7 +121,8 @@ TEST(ScanCodec, RefusesMalformedInputByReasonAndNeverCrashes) {
   for (int trial = 0; trial < 2000; ++trial) {
     auto bad = raw;
     const int flips = 1 + trial % 8;
-    for (int f = 0; f < flips; ++f) bad[rng() % bad.size()] ^= static_cast<std::uint8_t>(1 + rng() % 255);
+    for (int f = 0; f < flips; ++f)
+      bad[rng() % bad.size()] ^= static_cast<std::uint8_t>(1 + rng() % 255);
     if (trial % 5 == 0) bad.resize(rng() % bad.size());
     const auto decoded = decodeScan(reencode(bad), 500);
     if (decoded) EXPECT_LE(decoded->size(), 500u);

@@ -206,7 +206,8 @@ TEST(Conversions, RoutingMessagesRoundTrip) {
   offer.sequence = 9;
   core::routing::OfferEntry entry;
   entry.id = 17;
-  entry.pose = core::Pose3(Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  entry.pose =
+      core::Pose3(Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
   entry.correspondences = 12;
   entry.size_bytes = 61234;
   entry.utility = 0.75;

@@ -23,11 +23,11 @@
 
 #include "ccir_mapping/BrokerStats.h"
 #include "ccir_mapping/Keyframe.h"
-#include "ccir_mapping/SharedScan.h"
-#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/KeyframeFeatures.h"
 #include "ccir_mapping/LinkStats.h"
 #include "ccir_mapping/MapStats.h"
+#include "ccir_mapping/SharedScan.h"
+#include "ccir_mapping/ros/conversions.h"
 #include "wait_for.h"
 
 namespace ccir_mapping {
@@ -71,8 +71,8 @@ class Pipeline : public ::testing::Test {
                                             [this](const auto& m) { keyframes.push_back(m); }));
       subs.push_back(nh.subscribe<KeyframeFeatures>(
           "outbox/features", 100, [this](const auto& m) { features.push_back(m); }));
-      subs.push_back(nh.subscribe<SharedScan>("outbox/scans", 100,
-                                            [this](const auto& m) { outbox_scans.push_back(m); }));
+      subs.push_back(nh.subscribe<SharedScan>(
+          "outbox/scans", 100, [this](const auto& m) { outbox_scans.push_back(m); }));
       subs.push_back(
           nh.subscribe<nav_msgs::Path>("trajectory", 1, [this](const auto& m) { trajectory = m; }));
       subs.push_back(nh.subscribe<BrokerStats>("broker_stats", 1,
@@ -237,7 +237,8 @@ TEST_F(Pipeline, FixedRateBrokerSendsEveryNthKeyframe) {
   ASSERT_FALSE(conversions::toKeyframe(*s().outbox_scans[1], 100000, &decoded));
   EXPECT_EQ(decoded.id, 2u);
   EXPECT_EQ(decoded.robot, s().robot);
-  EXPECT_EQ(decoded.cloud.width * decoded.cloud.height, s().keyframes[2]->cloud.width * s().keyframes[2]->cloud.height);
+  EXPECT_EQ(decoded.cloud.width * decoded.cloud.height,
+            s().keyframes[2]->cloud.width * s().keyframes[2]->cloud.height);
 }
 
 TEST_F(Pipeline, BridgeReportsItsPeerLink) {

@@ -44,7 +44,8 @@ void ScanRanker::init() {
   // The same sums marginalGain() makes with nothing chosen yet, so rankings agree.
   const Coverage none;
   const Coverage& held = held_ ? *held_ : none;
-  for (std::size_t i = 0; i < gains_.size(); ++i) alone_.push_back(bonus_[i] + held.marginal(*gains_[i]));
+  for (std::size_t i = 0; i < gains_.size(); ++i)
+    alone_.push_back(bonus_[i] + held.marginal(*gains_[i]));
 }
 
 double ScanRanker::marginalGain(std::size_t scan, const Coverage& covered) const {

@@ -19,8 +19,7 @@ constexpr int kFootprintBlockLevels = 3;
 
 }  // namespace
 
-CcirBroker::CcirBroker(std::string self, std::vector<std::string> peers,
-                       const BrokerParams& params)
+CcirBroker::CcirBroker(std::string self, std::vector<std::string> peers, const BrokerParams& params)
     : self_(std::move(self)), params_(params), fixed_rate_(params.fixed_rate_every_n) {
   const auto errors = params.validate();
   if (!errors.empty()) throw std::invalid_argument("CcirBroker: " + errors.front());
@@ -205,7 +204,8 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
   const double k = peer->transform_known ? 1.0 : params_.unknown_transform_factor;
   double eta_i = 0.0;
   if (lambda < 1.0) {
-    for (const Kept* kept : candidates) eta_i = std::max(eta_i, peer->belief.marginal(kept->footprint));
+    for (const Kept* kept : candidates)
+      eta_i = std::max(eta_i, peer->belief.marginal(kept->footprint));
   }
   std::vector<std::pair<std::size_t, double>> chosen;  // (candidate, U)
   if (eta_i <= 0.0) {

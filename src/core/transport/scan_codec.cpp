@@ -115,8 +115,8 @@ std::optional<std::vector<ScanPoint>> decodeScan(const std::vector<std::uint8_t>
   }
   const std::uint64_t count = in.varint();
   if (!in.ok || count > max_points) {
-    return fail<std::vector<ScanPoint>>(error, "point count missing or above " +
-                                                   std::to_string(max_points));
+    return fail<std::vector<ScanPoint>>(
+        error, "point count missing or above " + std::to_string(max_points));
   }
   std::vector<ScanPoint> points(count);
   std::int64_t position[3] = {0, 0, 0};
@@ -137,8 +137,8 @@ std::optional<std::vector<ScanPoint>> decodeScan(const std::vector<std::uint8_t>
     }
   }
   for (ScanPoint& p : points) {  // back to unit length (a zero normal stays zero)
-    const float norm = std::sqrt(p.normal_x * p.normal_x + p.normal_y * p.normal_y +
-                                 p.normal_z * p.normal_z);
+    const float norm =
+        std::sqrt(p.normal_x * p.normal_x + p.normal_y * p.normal_y + p.normal_z * p.normal_z);
     if (norm > 0) {
       p.normal_x /= norm;
       p.normal_y /= norm;

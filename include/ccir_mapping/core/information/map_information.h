@@ -26,8 +26,8 @@ class MapInformation {
   /// What a scan tells a map that knows nothing of its region: the same voxels' entropy drop
   /// from unknown, over a subsample of its beams (the Mapper's scan_beam_step), cheap enough to
   /// compute for every keyframe.
-  virtual std::vector<VoxelGain> scanFootprint(
-      const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor) const = 0;
+  virtual std::vector<VoxelGain> scanFootprint(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
+                                               const Pose3& map_from_sensor) const = 0;
   /// Mutual information (CSQMI, nats) of a simulated sensor at `sensor_pose` (map frame).
   virtual double simulatedCsqmi(const Pose3& sensor_pose) const = 0;
 };
