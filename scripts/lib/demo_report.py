@@ -175,6 +175,7 @@ class Report:
                 "entropy_drop_bits": self.box_voxels() - self.map.entropy_bits,
                 "resolution_m": self.map.resolution_m, "rebuilds": self.map.rebuilds},
             "links": {peer: {"connected": l.connected, "bytes_sent": l.bytes_sent,
+                             "budget_bytes_per_s": l.budget_bytes_per_s,
                              "bytes_received": l.bytes_received, "messages_sent": l.messages_sent,
                              "messages_received": l.messages_received,
                              "queued": l.queued_control + l.queued_bulk,

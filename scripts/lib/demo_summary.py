@@ -124,7 +124,9 @@ def main():
             r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
             r["features_to_outbox"], r["broker"].get("scans_sent", 0), m.get("known_volume_m3", 0),
             "-" if not m else "%.2f" % (m["entropy_drop_bits"] / 1e6)))
-    lines.append("  bridges (budget 150 KB/s per robot):")
+    budgets = {l.get("budget_bytes_per_s") for r in robots for l in r["links"].values()}
+    lines.append("  bridges (budget %s KB/s per robot):" % "/".join(
+        "%.0f" % (b / 1e3) for b in sorted(b for b in budgets if b) or [150000]))
     lines.append("  %-9s %-9s %9s %9s %9s %9s %7s %6s" % (
         "robot", "peer", "connected", "sent KB", "recv KB", "messages", "queued", "drops"))
     for r in robots:
