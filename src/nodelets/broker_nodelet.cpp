@@ -30,8 +30,10 @@ namespace routing = core::routing;
 
 namespace {
 
-/// Where robot.launch puts the Bridge nodelet's parameters (the teammates come from there).
+/// Where robot.launch puts the Bridge's and the Mapper's parameters (the teammates and the
+/// map's resolution come from there).
 constexpr char kBridgeNamespace[] = "bridge";
+constexpr char kMapperNamespace[] = "mapper";
 /// Most points a teammate's scan may decode to (a VLP-16 sweep has ~29 k before filtering).
 constexpr std::size_t kMaxScanPoints = 1 << 20;
 
@@ -46,14 +48,9 @@ class BrokerNodelet final : public PipelineNodelet {
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
-    XmlRpc::XmlRpcValue bridge_values;
-    ros::param::get(nh.resolveName(kBridgeNamespace), bridge_values);
-    ros_params::ParamReader bridge_reader(bridge_values, nh.resolveName(kBridgeNamespace));
     ros_params::BridgeSettings bridge;
-    load(bridge_reader, bridge);
-    if (!bridge_reader.errors().empty()) {
+    if (!loadSiblingSettings(kBridgeNamespace, bridge)) {
       NODELET_WARN("the Bridge's parameters are invalid (it says why): no teammates to route to");
-      bridge.core.peers.clear();
     }
     std::vector<std::string> peers;
     for (const auto& peer : bridge.core.peers) {
@@ -68,8 +65,10 @@ class BrokerNodelet final : public PipelineNodelet {
     broker_ =
         std::make_unique<routing::CcirBroker>(settings_.frames.robot_name, peers, settings_.core);
     // Footprints need the map's parameters only, not its contents: an empty map of the
-    // Mapper's settings (its parameters, read like the Bridge's).
-    footprint_map_ = std::make_unique<core::information::OccupancyMap>(mapperParams());
+    // Mapper's settings.
+    ros_params::MapperSettings mapper;
+    loadSiblingSettings(kMapperNamespace, mapper);
+    footprint_map_ = std::make_unique<core::information::OccupancyMap>(mapper.core);
 
     stats_pub_ = nh.advertise<BrokerStats>(topics::kBrokerStats, topics::kLatestOnlyQueueSize);
     features_pub_ =
@@ -102,15 +101,6 @@ class BrokerNodelet final : public PipelineNodelet {
                  void (BrokerNodelet::*callback)(const boost::shared_ptr<M const>&),
                  int queue = topics::kMessageQueueSize) {
     subs_.push_back(getNodeHandle().subscribe<M>(topic, queue, callback, this));
-  }
-
-  core::information::MapperParams mapperParams() {
-    XmlRpc::XmlRpcValue values;
-    ros::param::get(getNodeHandle().resolveName("mapper"), values);
-    ros_params::ParamReader reader(values, getNodeHandle().resolveName("mapper"));
-    ros_params::MapperSettings mapper;
-    load(reader, mapper);
-    return reader.errors().empty() ? mapper.core : core::information::MapperParams{};
   }
 
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {

@@ -37,6 +37,22 @@ class PipelineNodelet : public nodelet::Nodelet {
     return reportSettings(reader, settings.frames.robot_name);
   }
 
+  /// Loads another nodelet's settings of this robot (its private namespace `name` beside this
+  /// one's, e.g. the Broker reads the Bridge's peers); false, leaving the defaults, when they
+  /// do not validate (that nodelet reports why).
+  template <class Settings>
+  bool loadSiblingSettings(const std::string& name, Settings& settings) {
+    const std::string ns = getNodeHandle().resolveName(name);
+    XmlRpc::XmlRpcValue values;
+    ros::param::get(ns, values);
+    ros_params::ParamReader reader(values, ns);
+    Settings loaded;
+    load(reader, loaded);
+    if (!reader.errors().empty()) return false;
+    settings = loaded;
+    return true;
+  }
+
   /// Appends " name before -> after" to `changes` when a reconfigured value changed.
   template <class T>
   static void noteChange(std::ostream& changes, const char* name, const T& before, const T& after) {

@@ -205,6 +205,22 @@ TEST_F(Provider, NothingWorthSendingIsNotOffered) {
   EXPECT_FALSE(a.makeOffer("robot_b", 1.0)) << "b holds all there is to see";
 }
 
+TEST_F(Provider, ARequestThatCrossedNewerOffersIsStillServed) {
+  keyframe(0, kPlaceA());
+  keyframe(1, kPlaceB());
+  a.setLink("robot_b", link(50000.0));
+  const auto first = a.makeOffer("robot_b", 0.0);
+  ASSERT_EQ(ids(*first), (std::vector<KeyframeId>{0}));
+  for (int i = 0; i < 6; ++i) {  // b's answer is late: a offers on meanwhile
+    a.setLink("robot_b", link(50000.0));
+    ASSERT_TRUE(a.makeOffer("robot_b", 1.0 + i));
+  }
+  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", first->sequence, {0}}, 7.0).send,
+            (std::vector<KeyframeId>{0}));
+  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", 99, {1}}, 7.0).refused.count("unknown_offer"), 1u)
+      << "an offer never made";
+}
+
 TEST_F(Provider, MalformedRequestsAndReceiptsAreRefusedAndCounted) {
   keyframe(0, kPlaceA());
   keyframe(1, kPlaceB());
@@ -217,7 +233,7 @@ TEST_F(Provider, MalformedRequestsAndReceiptsAreRefusedAndCounted) {
   EXPECT_EQ(a.onRequest({"robot_b", "robot_c", offer->sequence, {0}}, 0.0)
                 .refused.count("not_for_this_robot"),
             1u);
-  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", 77, {0}}, 0.0).refused.count("stale_offer"), 1u);
+  EXPECT_EQ(a.onRequest({"robot_b", "robot_a", 77, {0}}, 0.0).refused.count("unknown_offer"), 1u);
   EXPECT_EQ(a.onRequest({"robot_b", "robot_a", offer->sequence, {0, 0, 0}}, 0.0)
                 .refused.count("oversized"),
             1u);
@@ -228,7 +244,7 @@ TEST_F(Provider, MalformedRequestsAndReceiptsAreRefusedAndCounted) {
   EXPECT_TRUE(a.onReceipt({"robot_b", "robot_a", {5}}));
   const auto& refused = a.counters().at("robot_b").refused;
   EXPECT_EQ(refused.at("not_for_this_robot"), 1u);
-  EXPECT_EQ(refused.at("stale_offer"), 1u);
+  EXPECT_EQ(refused.at("unknown_offer"), 1u);
   EXPECT_EQ(refused.at("oversized"), 1u);
   EXPECT_EQ(refused.at("not_offered"), 1u);
   EXPECT_EQ(refused.at("receipt_for_unsent"), 1u);

@@ -11,8 +11,6 @@ namespace ccir_mapping::core::routing {
 
 namespace {
 
-/// Offers a provider remembers, so a request that crossed a newer offer is still served.
-constexpr std::size_t kRecentOffers = 4;
 /// Below this a utility or score counts as nothing worth the link.
 constexpr double kNegligible = 1e-9;
 constexpr int kFootprintBlockLevels = 3;
@@ -127,6 +125,7 @@ bool CcirBroker::holds(const Peer& peer, KeyframeId id) const {
 void CcirBroker::markSent(const std::string& name, Peer& peer, KeyframeId id, double now_s) {
   const Kept& kept = kept_.at(id);
   peer.unacknowledged[id] = now_s;
+  peer.offered.erase(id);
   peer.belief.add(kept.footprint);
   peer.unreported_bytes += kept.size_bytes;
   PeerCounters& c = counters_[name];
@@ -252,8 +251,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     --peer->offer_sequence;
     return std::nullopt;
   }
-  peer->recent_offers.emplace_back(offer.sequence, std::move(offered));
-  if (peer->recent_offers.size() > kRecentOffers) peer->recent_offers.pop_front();
+  peer->offered.insert(offered.begin(), offered.end());
   PeerCounters& c = counters_[name];
   ++c.offers_sent;
   c.scans_offered += offer.scans.size();
@@ -273,16 +271,18 @@ CcirBroker::RequestOutcome CcirBroker::onRequest(const Request& request, double 
   PeerCounters& c = counters_[request.requester];
   ++c.requests_received;
   c.scans_requested_by_peer += request.ids.size();
-  const auto offer = std::find_if(peer->recent_offers.begin(), peer->recent_offers.end(),
-                                  [&](const auto& o) { return o.first == request.offer_sequence; });
-  if (offer == peer->recent_offers.end()) return refuseAll("stale_offer");
-  if (request.ids.size() > offer->second.size()) return refuseAll("oversized");
+  // A request may answer an older offer than the last (it crossed newer ones on the link): any
+  // id offered and not sent since is served.
+  if (request.offer_sequence == 0 || request.offer_sequence > peer->offer_sequence) {
+    return refuseAll("unknown_offer");
+  }
+  if (request.ids.size() > peer->offered.size()) return refuseAll("oversized");
   for (const KeyframeId id : request.ids) {
     const char* reason = nullptr;
-    if (!offer->second.count(id)) {
-      reason = "not_offered";
-    } else if (holds(*peer, id)) {
+    if (holds(*peer, id)) {
       reason = "already_sent";
+    } else if (!peer->offered.count(id)) {
+      reason = "not_offered";
     } else if (!kept_.count(id)) {
       reason = "evicted";
     }

@@ -23,7 +23,6 @@
 // once when the keyframe is made (MapInformation::scanGains and coarsened()).
 #pragma once
 
-#include <deque>
 #include <functional>
 #include <map>
 #include <optional>
@@ -135,8 +134,8 @@ class CcirBroker {
     std::set<KeyframeId> acknowledged;
     information::Coverage belief;
     std::uint32_t offer_sequence = 0;
-    /// Ids of the recent offers, by sequence.
-    std::deque<std::pair<std::uint32_t, std::set<KeyframeId>>> recent_offers;
+    /// Ids offered and not sent since: what a request may ask for.
+    std::set<KeyframeId> offered;
     // Requester side.
     std::optional<Offer> pending_offer;
     std::set<KeyframeId> received;
