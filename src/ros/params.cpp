@@ -197,6 +197,7 @@ void load(ParamReader& reader, BrokerSettings& config) {
   reader.read("max_kept_scans", p.max_kept_scans);
   reader.read("receipt_timeout_s", p.receipt_timeout_s);
   reader.read("max_offer_scans", p.max_offer_scans);
+  reader.read("min_novelty", p.min_novelty);
   reader.read("fixed_rate_every_n", p.fixed_rate_every_n);
   reader.read("stats_period_s", p.stats_period_s);
   reader.addErrors(p.validate());

@@ -177,7 +177,9 @@ TEST_F(Provider, PoseUncertaintyWeighsTheLoopClosureUtilityOnceTheTransformIsKno
 }
 
 TEST_F(Provider, LambdaZeroGivesTheGreedyInformationOrder) {
-  CcirBroker b("robot_a", {"robot_b"}, params(0.0));
+  BrokerParams p = params(0.0);
+  p.min_novelty = 0.0;  // the plain greedy order, nothing held back
+  CcirBroker b("robot_a", {"robot_b"}, p);
   std::vector<std::vector<VoxelGain>> gains = {blocks(0, 10), blocks(5, 10), blocks(12, 4),
                                                blocks(30, 6, 0.5F), blocks(2, 3, 2.0F)};
   for (KeyframeId id = 0; id < gains.size(); ++id) {
@@ -219,6 +221,27 @@ TEST_F(Provider, ARequestThatCrossedNewerOffersIsStillServed) {
             (std::vector<KeyframeId>{0}));
   EXPECT_EQ(a.onRequest({"robot_b", "robot_a", 99, {1}}, 7.0).refused.count("unknown_offer"), 1u)
       << "an offer never made";
+}
+
+TEST(ProviderNovelty, AScanMostlyKnownToTheTeammateStaysHome) {
+  //   0: blocks 0..9 (sent)   1: blocks 2..11 (8 of 10 known)   2: blocks 40..44 (new)
+  for (const double min_novelty : {0.25, 0.1}) {
+    BrokerParams p;
+    p.min_novelty = min_novelty;
+    CcirBroker a("robot_a", {"robot_b"}, p);
+    a.addKeyframe(0, 0, Pose3::Identity(), kScanBytes, blocks(0, 10));
+    a.setLink("robot_b", link(50000.0));
+    const auto first = a.makeOffer("robot_b", 0.0);
+    a.onRequest({"robot_b", "robot_a", first->sequence, {0}}, 0.0);
+    a.addKeyframe(1, 1, Pose3::Identity(), kScanBytes, blocks(2, 10));
+    a.addKeyframe(2, 2, Pose3::Identity(), kScanBytes, blocks(40, 5));
+    a.setLink("robot_b", link(100000.0));
+    const auto offer = a.makeOffer("robot_b", 1.0);
+    ASSERT_TRUE(offer);
+    const std::vector<KeyframeId> expected =
+        min_novelty > 0.2 ? std::vector<KeyframeId>{2} : std::vector<KeyframeId>{2, 1};
+    EXPECT_EQ(ids(*offer), expected) << "min_novelty " << min_novelty;
+  }
 }
 
 TEST_F(Provider, MalformedRequestsAndReceiptsAreRefusedAndCounted) {

@@ -31,6 +31,7 @@ std::vector<std::string> BrokerParams::validate() const {
   check.inRange("max_kept_scans", max_kept_scans, 1, 1000000);
   check.inRange("receipt_timeout_s", receipt_timeout_s, 1.0, 86400.0);
   check.inRange("max_offer_scans", max_offer_scans, 1, 100000);
+  check.inRange("min_novelty", min_novelty, 0.0, 1.0);
   check.inRange("fixed_rate_every_n", fixed_rate_every_n, 1, 100000);
   check.inRange("stats_period_s", stats_period_s, 0.05, 3600.0);
   return check.errors();

@@ -62,6 +62,7 @@ std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, Stamp stamp, cons
   kept.pose = placeOwn(odom_pose);
   kept.size_bytes = size_bytes;
   kept.footprint = std::move(footprint);
+  kept.footprint_bits = information::Coverage().marginal(kept.footprint);
   kept_by_stamp_[stamp] = id;
   std::vector<KeyframeId> evicted;
   while (kept_.size() > static_cast<std::size_t>(params_.max_kept_scans)) {
@@ -177,6 +178,10 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     total_bytes += double(kept.size_bytes);
     max_variance = std::max(max_variance, kept.variance_m2);
     if (holds(*peer, id)) continue;
+    if (kept.footprint_bits <= 0.0 ||
+        peer->belief.marginal(kept.footprint) < params_.min_novelty * kept.footprint_bits) {
+      continue;  // the teammate knows (nearly) all it shows
+    }
     ids.push_back(id);
     candidates.push_back(&kept);
   }
@@ -226,8 +231,13 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
       gains.push_back(&candidates[i]->footprint);
       bonus.push_back(lambda * f[i] / scale);
     }
+    const auto bonus_of = [bonus](std::size_t i) { return bonus[i]; };
     const information::ScanRanker ranker(std::move(gains), std::move(bonus), &peer->belief);
-    for (const auto& r : ranker.rankLazy(n)) chosen.emplace_back(r.index, r.gain * scale);
+    for (const auto& r : ranker.rankLazy(n)) {
+      // What it adds beyond the picks before it, as a share of what it shows.
+      const double novelty = (r.gain - bonus_of(r.index)) / candidates[r.index]->footprint_bits;
+      if (novelty >= params_.min_novelty) chosen.emplace_back(r.index, r.gain * scale);
+    }
   }
 
   Offer offer;

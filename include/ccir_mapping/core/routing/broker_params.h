@@ -32,6 +32,10 @@ struct BrokerParams {
   double receipt_timeout_s = 60.0;
   /// Most scans an offer from a teammate may hold (a longer one is refused).
   int max_offer_scans = 100;
+  /// A keyframe is offered only while at least this share of its footprint's information is
+  /// new to the teammate (thesis §3.3.1's thresholding on scan information): the scans of a
+  /// place the teammate holds stay home. 0 offers everything the link carries.
+  double min_novelty = 0.25;
   /// fixed_rate mode: send every n-th keyframe.
   int fixed_rate_every_n = 5;
   /// Period of BrokerStats.

@@ -10,7 +10,8 @@
 // keyframe could be the one that finds it) and I = the entropy the scan's footprint adds to the
 // belief, normalised by the largest, times unknown_transform_factor while the transform is
 // unknown. Each pick enters the belief before the next (ScanRanker), so two scans of one place
-// are not both offered for their map information. Scans i holds are never offered.
+// are not both offered for their map information; a scan of which less than min_novelty would be
+// new to i (at its pick) is not offered at all. Scans i holds are never offered.
 //
 // Requester: the offers of a period, scored by S = lambda c_k / c_max + (1 - lambda) I' with I'
 // the CSQMI of a simulated sensor at the offered pose in the own map (through the team
@@ -120,7 +121,8 @@ class CcirBroker {
     Pose3 pose;
     std::size_t size_bytes = 0;
     std::vector<information::VoxelGain> footprint;
-    double variance_m2 = -1.0;  // < 0: not known yet
+    double footprint_bits = 0.0;  // its information to a map that knows nothing
+    double variance_m2 = -1.0;    // < 0: not known yet
   };
   struct Peer {
     LinkState link;
