@@ -178,12 +178,8 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     total_bytes += double(kept.size_bytes);
     max_variance = std::max(max_variance, kept.variance_m2);
     if (holds(*peer, id)) continue;
-    // While the transform is unknown a keyframe the teammate's word sets point at is worth its
-    // loop closure whatever the teammate knows of the place; otherwise it must show enough new.
-    const bool loop_candidate = !peer->transform_known && peer->correspondences.count(id);
-    if (!loop_candidate &&
-        (kept.footprint_bits <= 0.0 ||
-         peer->belief.marginal(kept.footprint) < params_.min_novelty * kept.footprint_bits)) {
+    if (kept.footprint_bits <= 0.0 ||
+        peer->belief.marginal(kept.footprint) < params_.min_novelty * kept.footprint_bits) {
       continue;  // the teammate knows (nearly) all it shows
     }
     ids.push_back(id);
@@ -240,10 +236,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     for (const auto& r : ranker.rankLazy(n)) {
       // What it adds beyond the picks before it, as a share of what it shows.
       const double novelty = (r.gain - bonus_of(r.index)) / candidates[r.index]->footprint_bits;
-      const bool loop_candidate = !peer->transform_known && f[r.index] > 0.0;
-      if (loop_candidate || novelty >= params_.min_novelty) {
-        chosen.emplace_back(r.index, r.gain * scale);
-      }
+      if (novelty >= params_.min_novelty) chosen.emplace_back(r.index, r.gain * scale);
     }
   }
 

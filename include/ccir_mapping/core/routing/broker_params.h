@@ -34,8 +34,7 @@ struct BrokerParams {
   int max_offer_scans = 100;
   /// A keyframe is offered only while at least this share of its footprint's information is
   /// new to the teammate (thesis §3.3.1's thresholding on scan information): the scans of a
-  /// place the teammate holds stay home, except, while the transform is unknown, those its word
-  /// sets gave correspondences (loop-closure candidates). 0 offers everything the link carries.
+  /// place the teammate holds stay home. 0 offers everything the link carries.
   double min_novelty = 0.25;
   /// fixed_rate mode: send every n-th keyframe.
   int fixed_rate_every_n = 5;

@@ -11,9 +11,7 @@
 // belief, normalised by the largest, times unknown_transform_factor while the transform is
 // unknown. Each pick enters the belief before the next (ScanRanker), so two scans of one place
 // are not both offered for their map information; a scan of which less than min_novelty would be
-// new to i (at its pick) is not offered at all, unless i's word sets gave it correspondences
-// while the transform is unknown (it may close the loop that finds the transform). Scans i
-// holds are never offered.
+// new to i (at its pick) is not offered at all. Scans i holds are never offered.
 //
 // Requester: the offers of a period, scored by S = lambda c_k / c_max + (1 - lambda) I' with I'
 // the CSQMI of a simulated sensor at the offered pose in the own map (through the team
