@@ -1,5 +1,6 @@
 // Compact wire form of a shared keyframe scan: what a teammate needs to map it and to verify a
-// loop closure against it (positions, normals, intensity), about a fifth of the PointCloud2.
+// loop closure against it (positions, normals, intensity): ~59 KB for a ~500 KB PointCloud2 of a
+// simulated VLP-16 keyframe.
 //
 // Positions are fixed-point at 1 mm in the sensor frame (the voxel filter has already put
 // points 0.1 m apart, and the sensor is good to ~3 cm), delta-coded from point to point in the
