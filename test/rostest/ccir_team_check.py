@@ -7,17 +7,16 @@ nothing may be refused but the benign, and no window on any link may carry more 
 burst + rate * its length."""
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import tempfile
-import time
 import unittest
 
 import rosgraph
 import rospy
 import rosunit
 import yaml
+
+from rostest_processes import Processes, free_port
 
 TEAM_KEY = "ccir-team-test-team-key"
 BUDGET = 150000.0
@@ -26,13 +25,7 @@ BURST = 131072
 SLACK = 65536 + 100
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class CcirTeam(unittest.TestCase):
+class CcirTeam(Processes, unittest.TestCase):
     def setUp(self):
         self.mission = rospy.get_param("~mission")
         self.dir = tempfile.mkdtemp(prefix="ccir_team_")
@@ -41,30 +34,6 @@ class CcirTeam(unittest.TestCase):
     def tearDown(self):
         self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
-
-    def stop_all(self):
-        for process in reversed(self.processes):
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGINT)
-        for process in reversed(self.processes):
-            try:
-                process.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
-        self.processes = []
-
-    def env(self, port):
-        env = dict(os.environ, ROS_IP="127.0.0.1", ROS_MASTER_URI="http://127.0.0.1:%d" % port,
-                   PYTHONUNBUFFERED="1", ROS_LOG_DIR=os.path.join(self.dir, "log"))
-        env.pop("ROS_HOSTNAME", None)
-        return env
-
-    def spawn(self, name, command, port, out=None):
-        log = open(out or os.path.join(self.dir, name + ".log"), "w")
-        process = subprocess.Popen(command, env=self.env(port), stdout=log,
-                                   stderr=subprocess.STDOUT, start_new_session=True)
-        self.processes.append(process)
-        return process
 
     def latest(self, topic, port):
         """The next message on a topic of one master, as a dict (None if none in 10 s)."""
@@ -75,14 +44,6 @@ class CcirTeam(unittest.TestCase):
             return yaml.safe_load(text) if text.strip() else None
         except yaml.YAMLError:
             return None
-
-    def wait_for(self, condition, timeout_s, what):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if condition():
-                return
-            time.sleep(0.5)
-        self.fail("%s within %.0f s" % (what, timeout_s))
 
     def run_team(self, robots):
         run = os.path.join(self.dir, "%d_robots" % len(robots))

@@ -8,9 +8,6 @@ the half-speed run would send twice as many."""
 import csv
 import os
 import shutil
-import signal
-import socket
-import subprocess
 import tempfile
 import time
 import unittest
@@ -20,16 +17,12 @@ import rosgraph
 import rospy
 import rosunit
 
+from rostest_processes import Processes, free_port
+
 TEAM_KEY = "replay-rate-test-team-key"
 # Below what every keyframe in wire form needs (~60 KB a second), so the link is saturated.
 BUDGET = 20000.0
 BURST = 16384
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def rows(path):
@@ -41,7 +34,7 @@ def rows(path):
     return [r for r in csv.DictReader(lines) if None not in r.values() and None not in r]
 
 
-class ReplayRate(unittest.TestCase):
+class ReplayRate(Processes, unittest.TestCase):
     def setUp(self):
         self.bag = rospy.get_param("~bag")
         self.dir = tempfile.mkdtemp(prefix="replay_rate_")
@@ -50,36 +43,6 @@ class ReplayRate(unittest.TestCase):
     def tearDown(self):
         self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
-
-    def stop_all(self):
-        for process in reversed(self.processes):
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGINT)
-        for process in reversed(self.processes):
-            try:
-                process.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
-        self.processes = []
-
-    def spawn(self, name, command, master_port, out=None):
-        env = dict(os.environ, ROS_IP="127.0.0.1", ROS_MASTER_URI="http://127.0.0.1:%d" % master_port,
-                   PYTHONUNBUFFERED="1",  # rostopic echo rows reach the file at once
-                   ROS_LOG_DIR=os.path.join(self.dir, "log"))
-        env.pop("ROS_HOSTNAME", None)
-        log = open(out or os.path.join(self.dir, name + ".log"), "w")
-        process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT,
-                                   start_new_session=True)
-        self.processes.append(process)
-        return process
-
-    def wait_for(self, condition, timeout_s, what):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if condition():
-                return
-            time.sleep(0.2)
-        self.fail("%s within %.0f s" % (what, timeout_s))
 
     def replay(self, rate):
         """Bytes robot_a sent per mission second while saturated, and the scans it sent."""

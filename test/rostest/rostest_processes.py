@@ -1,0 +1,51 @@
+"""Processes of a rostest that runs its own ROS masters (one per robot, as in the field):
+spawned in their own process groups, logged to files, stopped in reverse order."""
+import os
+import signal
+import socket
+import subprocess
+import time
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Processes:
+    """Mixin for unittest.TestCase: self.dir must be set (logs go there)."""
+
+    def env(self, master_port):
+        env = dict(os.environ, ROS_IP="127.0.0.1",
+                   ROS_MASTER_URI="http://127.0.0.1:%d" % master_port,
+                   PYTHONUNBUFFERED="1",  # rostopic echo rows reach the file at once
+                   ROS_LOG_DIR=os.path.join(self.dir, "log"))
+        env.pop("ROS_HOSTNAME", None)
+        return env
+
+    def spawn(self, name, command, master_port, out=None):
+        log = open(out or os.path.join(self.dir, name + ".log"), "w")
+        process = subprocess.Popen(command, env=self.env(master_port), stdout=log,
+                                   stderr=subprocess.STDOUT, start_new_session=True)
+        self.processes.append(process)
+        return process
+
+    def stop_all(self):
+        for process in reversed(self.processes):
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGINT)
+        for process in reversed(self.processes):
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+        self.processes = []
+
+    def wait_for(self, condition, timeout_s, what, poll_s=0.2):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if condition():
+                return
+            time.sleep(poll_s)
+        self.fail("%s within %.0f s" % (what, timeout_s))
