@@ -148,8 +148,13 @@ class BrokerNodelet final : public PipelineNodelet {
 
   void onCorrespondences(const Correspondences::ConstPtr& msg) {
     count("in correspondences");
+    if (msg->keyframe_ids.size() != msg->counts.size()) {
+      NODELET_WARN_THROTTLE(5.0, "ignoring correspondences for %s: %zu ids but %zu counts",
+                            msg->peer.c_str(), msg->keyframe_ids.size(), msg->counts.size());
+      return;
+    }
     std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = 0; i < std::min(msg->keyframe_ids.size(), msg->counts.size()); ++i) {
+    for (std::size_t i = 0; i < msg->keyframe_ids.size(); ++i) {
       broker_->setCorrespondences(msg->peer, msg->keyframe_ids[i],
                                   static_cast<int>(msg->counts[i]));
     }
@@ -247,7 +252,9 @@ class BrokerNodelet final : public PipelineNodelet {
     }
     if (!broker_->onScanReceived(msg->robot, msg->id,
                                  ros::serialization::serializationLength(*msg))) {
-      return;  // a duplicate or a stranger's: counted
+      NODELET_WARN_THROTTLE(5.0, "dropping scan %lu of '%s': received before, or not a teammate's",
+                            static_cast<unsigned long>(msg->id), msg->robot.c_str());
+      return;  // counted by reason on broker_stats
     }
     ++scans_received_;
     count("out teammate_scans");
