@@ -7,9 +7,9 @@
 #include <pcl/features/normal_3d.h>
 #include <pcl/features/spin_image.h>
 #include <pcl/keypoints/iss_3d.h>
-#include <pcl/search/kdtree.h>
 
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/common/serial_kd_tree.h"
 #include "ccir_mapping/core/preprocess/voxel_downsample.h"
 
 namespace ccir_mapping::core::features {
@@ -39,7 +39,7 @@ LocalFeatures FeatureExtractor::extract(const Cloud& cloud, const Eigen::Vector3
                             : pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>(cropped);
   pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
   estimation.setInputCloud(points);
-  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>(false));
+  estimation.setSearchMethod(std::make_shared<common::SerialKdTree<pcl::PointXYZ>>(false));
   estimation.setRadiusSearch(params_.normal_radius_m);
   estimation.setViewPoint(0.0F, 0.0F, 0.0F);
   pcl::PointCloud<pcl::Normal> normals;
@@ -62,7 +62,7 @@ LocalFeatures FeatureExtractor::extract(const Cloud& cloud, const Eigen::Vector3
   s.points = surface->size();
   if (surface->size() < static_cast<std::size_t>(params_.iss_min_neighbors) + 1) return features;
 
-  auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZINormal>>(false);
+  auto tree = std::make_shared<common::SerialKdTree<pcl::PointXYZINormal>>(false);
   tree->setInputCloud(surface);
 
   // ISS on the same cloud it searches (a different search surface breaks its NMS in 1.13).
@@ -123,7 +123,7 @@ std::vector<std::optional<SpinImage>> FeatureExtractor::describe(const Cloud::Co
   spin.setInputCloud(surface);
   spin.setInputNormals(surface);
   spin.setIndices(pcl::make_shared<pcl::Indices>(at));
-  spin.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZINormal>>(false));
+  spin.setSearchMethod(std::make_shared<common::SerialKdTree<pcl::PointXYZINormal>>(false));
   spin.setRadiusSearch(params_.spin_support_m);
   if (params_.spin_axis == SpinAxis::kZUp) {
     pcl::PointXYZINormal axis;

@@ -4,9 +4,9 @@
 #include <stdexcept>
 
 #include <pcl/features/normal_3d_omp.h>
-#include <pcl/search/kdtree.h>
 
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/common/serial_kd_tree.h"
 #include "ccir_mapping/core/preprocess/voxel_downsample.h"
 
 namespace ccir_mapping::core::preprocess {
@@ -75,7 +75,7 @@ ScanPreprocessor::OutputCloud::Ptr ScanPreprocessor::process(const InputCloud& s
       static_cast<unsigned int>(params_.threads));
   estimation.setInputCloud(voxels);
   // Unsorted neighbours: sorting each result costs a third of the normal estimation.
-  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZI>>(false));
+  estimation.setSearchMethod(std::make_shared<common::SerialKdTree<pcl::PointXYZI>>(false));
   estimation.setRadiusSearch(params_.normal_radius_m);
   estimation.setViewPoint(0.0F, 0.0F, 0.0F);  // the sensor: normals face it
   pcl::PointCloud<pcl::Normal> normals;

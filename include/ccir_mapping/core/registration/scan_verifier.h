@@ -8,9 +8,9 @@
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <pcl/search/kdtree.h>
 
 #include "ccir_mapping/core/alignment/frame_alignment.h"
+#include "ccir_mapping/core/common/serial_kd_tree.h"
 #include "ccir_mapping/core/features/local_features.h"
 
 namespace ccir_mapping::core::registration {
@@ -76,7 +76,7 @@ struct Verification {
 /// clouds' search trees and GICP's per-point covariances (~70 bytes a point).
 struct PreparedScan {
   using Covariances = std::vector<Eigen::Matrix3d, Eigen::aligned_allocator<Eigen::Matrix3d>>;
-  using Tree = pcl::search::KdTree<pcl::PointXYZ>;
+  using Tree = common::SerialKdTree<pcl::PointXYZ>;
 
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr cloud;
   Tree::Ptr cloud_tree;
