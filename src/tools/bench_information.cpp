@@ -34,7 +34,8 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 struct Keyframe {
-  core::Pose3 pose;  // sensor in the world
+  core::Pose3 pose;                              // sensor in the world
+  pcl::PointCloud<pcl::PointXYZ> sensor_points;  // 0.1 m voxels, as the Mapper gets them
   pcl::PointCloud<pcl::PointXYZ> world_points;
 };
 
@@ -60,6 +61,7 @@ std::vector<Keyframe> keyframes(const sim::World& world, int count, unsigned see
     pcl::PointCloud<pcl::PointXYZ> sensor;
     for (const auto& p : scan.points) sensor.push_back(pcl::PointXYZ(p.x, p.y, p.z));
     const auto kept = core::preprocess::voxelDownsample(sensor, 0.1);
+    k.sensor_points = *kept;
     for (const auto& p : *kept) {
       const Eigen::Vector3d w = k.pose * p.getVector3fMap().cast<double>();
       k.world_points.push_back(pcl::PointXYZ(w.x(), w.y(), w.z()));
@@ -117,7 +119,7 @@ int main(int argc, char** argv) {
   std::size_t points = 0;
   for (int i = 0; i < held; ++i) {
     const auto start = std::chrono::steady_clock::now();
-    map.insert(map.computeUpdate(frames[i].world_points, frames[i].pose.translation()));
+    map.insert(frames[i].sensor_points, frames[i].pose);  // the Mapper's call
     insert_ms += millisecondsSince(start);
     points += frames[i].world_points.size();
   }

@@ -227,6 +227,36 @@ TEST(OccupancyMap, InsertingAScanLowersEntropyByItsPerVoxelDrops) {
   EXPECT_NEAR(map.entropyBits(box), unpruned, 1e-6 * unpruned);
 }
 
+TEST(OccupancyMap, UpdatesEachVoxelAsOctomapsUpdateNodeEvenInsidePrunedLeaves) {
+  OccupancyMap map(params());
+  octomap::OcTree reference(map.tree().getResolution());
+  reference.setClampingThresMin(map.params().occupancy_clamp_min);
+  reference.setClampingThresMax(map.params().occupancy_clamp_max);
+  const auto apply = [&](const ScanUpdate& update) {
+    map.insert(update);
+    for (const auto& key : update.free) reference.updateNode(key, false, /*lazy_eval=*/true);
+    for (const auto& key : update.occupied) reference.updateNode(key, true, /*lazy_eval=*/true);
+  };
+  const auto first = map.computeUpdate(roomScan({0, 0, 0}), {0, 0, 0});
+  apply(first);
+  // Equal free voxels merge into coarser leaves, which the next scan must split again.
+  const_cast<octomap::OcTree&>(map.tree()).prune();
+  reference.prune();
+  ASSERT_LT(map.tree().getNumLeafNodes(), first.free.size() + first.occupied.size());
+  const auto second = map.computeUpdate(roomScan({2, 1, 0.5}), {2, 1, 0.5});
+  apply(second);
+  for (const ScanUpdate* update : {&first, &second}) {
+    for (const auto* keys : {&update->free, &update->occupied}) {
+      for (const auto& key : *keys) {
+        ASSERT_FLOAT_EQ(map.occupancy(key), reference.search(key)->getOccupancy());
+      }
+    }
+  }
+  const Box params_box{map.params().entropyBoxMin(), map.params().entropyBoxMax()};
+  EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(params_box), 1e-9 * map.boxEntropyBits());
+  EXPECT_NEAR(map.boxKnownVolumeM3(), map.knownVolumeM3(params_box), 1e-9);
+}
+
 TEST(OccupancyMap, MutualInformationIsAboutZeroWhereMappedAndLargeWhereNew) {
   OccupancyMap map(params());
   const auto scan = roomScan({0, 0, 0});

@@ -30,6 +30,7 @@ struct Box {
 /// endpoint is occupied, even if another beam crossed it). Measuring and inserting use the same
 /// keys, so the measured entropy drop is exactly what inserting removes.
 struct ScanUpdate {
+  /// Each in the octree's depth-first order (FlatKeySet::inTreeOrder).
   std::vector<octomap::OcTreeKey> free;
   std::vector<octomap::OcTreeKey> occupied;
   /// Points dropped for being non-finite.
@@ -52,8 +53,7 @@ class OccupancyMap final : public MapInformation {
   /// nodes are left stale (nothing here reads them; save() brings them up to date), which
   /// spares a walk over the whole tree per scan.
   void insert(const ScanUpdate& update);
-  /// Inserts a scan in its sensor frame at the sensor's pose: the same voxels as
-  /// insert(computeUpdate(...)), without ordering them (the result does not depend on order).
+  /// insert(computeUpdate(sensor_points, map_from_sensor)).
   void insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor);
 
   /// Entropy, in bits, inserting `update` would remove (sum over its voxels of h(before) -
@@ -111,6 +111,8 @@ class OccupancyMap final : public MapInformation {
               FlatKeySet& free_cells, FlatKeySet& occupied_cells) const;
   /// One voxel's hit or miss, with the entropy box's statistics following it.
   void update(const octomap::OcTreeKey& key, bool hit);
+  /// The voxel's node if the tree holds it at the finest depth (not inside a pruned leaf).
+  octomap::OcTreeNode* finestLeaf(const octomap::OcTreeKey& key);
 
   MapperParams params_;
   octomap::OcTree tree_;

@@ -64,6 +64,8 @@ struct Verification {
   int inliers = 0;
   double fitness_m2 = 0.0;
   /// The wall overlap, the smaller of the two directions (VerificationParams::min_overlap).
+  /// Tests run in order (fitness, overlap, free space) and stop at the first that fails, so a
+  /// rejected candidate may have the first direction's value only, or 0 for tests not run.
   double overlap = 0.0;
   /// The larger of the two directions' free-space violation shares.
   double free_space_violation = 0.0;
