@@ -458,6 +458,9 @@ TEST(ScanVerifier, InvalidParametersAreNamed) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("match_neighbors"), std::string::npos);
   }
+  params = VerificationParams{};
+  params.gicp_source_step = 0;
+  EXPECT_THROW(ScanVerifier{params}, std::invalid_argument);
 }
 
 }  // namespace

@@ -117,6 +117,18 @@ TEST(RealScans, RevisitVerifiesAndOtherPlaceIsRejected) {
   const double yaw_deg = std::atan2(revisit.relative(1, 0), revisit.relative(0, 0)) * 180 / M_PI;
   EXPECT_NEAR(std::abs(yaw_deg), 11.0, 3.0);
   EXPECT_LT(revisit.relative.translation().norm(), 1.0);
+  {  // GICP moving every point of the candidate instead of every gicp_source_step-th: the
+     // same alignment, to a few centimetres.
+    VerificationParams every_point = outdoor;
+    every_point.gicp_source_step = 1;
+    const Verification full =
+        ScanVerifier(every_point)
+            .verify(*first.cloud, first.features, *second.cloud, second.features);
+    ASSERT_TRUE(full.accepted) << full.reason;
+    const Pose3 difference = full.relative.inverse() * revisit.relative;
+    EXPECT_LT(difference.translation().norm(), 0.05);
+    EXPECT_LT(Eigen::AngleAxisd(difference.linear()).angle(), 0.01);
+  }
   for (const Scan* scan : {&first, &second}) {
     const Verification wrong =
         verifier.verify(*scan->cloud, scan->features, *other.cloud, other.features);

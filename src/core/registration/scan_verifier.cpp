@@ -152,6 +152,7 @@ std::vector<std::string> VerificationParams::validate() const {
   check.inHalfOpenRange("gicp_max_range_m", gicp_max_range_m, 0.0, 300.0);
   check.inHalfOpenRange("gicp_max_correspondence_m", gicp_max_correspondence_m, 0.0, 100.0);
   check.inRange("gicp_iterations", gicp_iterations, 1, 10000);
+  check.inRange("gicp_source_step", gicp_source_step, 1, 100);
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
   check.inRange("min_overlap", min_overlap, 0.0, 1.0);
   check.inHalfOpenRange("overlap_distance_m", overlap_distance_m, 0.0, 10.0);
@@ -175,10 +176,20 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
   scan.cloud = prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.cloud_tree = pcl::make_shared<PreparedScan::Tree>();
   scan.covariances = std::make_shared<PreparedScan::Covariances>();
+  auto source = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  scan.source_tree = pcl::make_shared<PreparedScan::Tree>();
+  scan.source_covariances = std::make_shared<PreparedScan::Covariances>();
   if (!scan.cloud->empty()) {
     scan.cloud_tree->setInputCloud(scan.cloud);
     Gicp().covariancesOf(scan.cloud, scan.cloud_tree, *scan.covariances);
+    const auto step = static_cast<std::size_t>(params_.gicp_source_step);
+    for (std::size_t i = 0; i < scan.cloud->size() && i < scan.covariances->size(); i += step) {
+      source->push_back((*scan.cloud)[i]);
+      scan.source_covariances->push_back((*scan.covariances)[i]);
+    }
+    scan.source_tree->setInputCloud(source);
   }
+  scan.source = source;
   scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.walls_tree = pcl::make_shared<PreparedScan::Tree>();
   if (!scan.walls->empty()) scan.walls_tree->setInputCloud(scan.walls);
@@ -245,9 +256,9 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
     }
   }
   Gicp gicp;
-  gicp.setInputSource(to_scan.cloud);
-  gicp.setSourceCovariances(to_scan.covariances);
-  gicp.setSearchMethodSource(to_scan.cloud_tree, /*force_no_recompute=*/true);
+  gicp.setInputSource(to_scan.source);
+  gicp.setSourceCovariances(to_scan.source_covariances);
+  gicp.setSearchMethodSource(to_scan.source_tree, /*force_no_recompute=*/true);
   gicp.setInputTarget(from_scan.cloud);
   gicp.setTargetCovariances(from_scan.covariances);
   gicp.setSearchMethodTarget(from_scan.cloud_tree, /*force_no_recompute=*/true);

@@ -29,6 +29,9 @@ struct VerificationParams {
   double gicp_max_range_m = 40.0;
   double gicp_max_correspondence_m = 1.0;
   int gicp_iterations = 50;
+  /// GICP moves every this-th point of the candidate's cloud onto all of the other's: six
+  /// degrees of freedom need far fewer than a keyframe's ~5000, and the cost is proportional.
+  int gicp_source_step = 2;
   /// Accept when the mean squared distance of matched points (within 1 m) is at most this.
   double max_fitness_m2 = 0.1;
   /// ... and when, after alignment, at least this share of each scan's wall points within
@@ -83,6 +86,11 @@ struct PreparedScan {
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr cloud;
   Tree::Ptr cloud_tree;
   std::shared_ptr<Covariances> covariances;
+  /// What GICP moves when the scan is the candidate: every gicp_source_step-th point of
+  /// `cloud`, with their covariances and tree.
+  pcl::PointCloud<pcl::PointXYZ>::ConstPtr source;
+  Tree::Ptr source_tree;
+  std::shared_ptr<Covariances> source_covariances;
   /// Points on non-horizontal surfaces (walls, pillars, rubble), for the overlap test: floor
   /// and ceiling overlap wherever two scans are aligned, so they would hide a wrong alignment.
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr walls;
