@@ -107,7 +107,8 @@ class BrokerNodelet final : public PipelineNodelet {
     count("in keyframes");
     auto shared = boost::make_shared<SharedScan>();
     const auto odom_pose = conversions::toPose(keyframe->odom_pose);
-    std::optional<std::string> error = conversions::toSharedScan(*keyframe, shared.get());
+    std::optional<std::string> error =
+        measured("codec", [&] { return conversions::toSharedScan(*keyframe, shared.get()); });
     if (!error && !odom_pose) error = "odom_pose is not finite";
     if (error) {
       NODELET_WARN_THROTTLE(5.0, "not sharing keyframe %lu: %s",
@@ -241,7 +242,10 @@ class BrokerNodelet final : public PipelineNodelet {
     auto keyframe = boost::make_shared<Keyframe>();
     std::optional<std::string> error;
     if (msg->robot == settings_.frames.robot_name) error = "it is this robot's own (bridge loop?)";
-    if (!error) error = conversions::toKeyframe(*msg, kMaxScanPoints, keyframe.get());
+    if (!error) {
+      error = measured(
+          "codec", [&] { return conversions::toKeyframe(*msg, kMaxScanPoints, keyframe.get()); });
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     if (error) {
       broker_->countRefusal(msg->robot, "undecodable_scan");

@@ -36,7 +36,9 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr prepared(const pcl::PointCloud<pcl::PointXYZ
 /// inliers of one rigid transform, so their fit fails at once and RANSAC skips them (up to ten
 /// times its iterations) without counting inliers - the pre-rejection of PCL's
 /// SampleConsensusPrerejective, which does its own correspondence search and so cannot take
-/// ours. A true triple always passes: an iteration is spent only on a plausible draw.
+/// ours. A true triple always passes: an iteration is spent only on a plausible draw. Source
+/// point i corresponds to target point i (verify() builds them so), so the check reads the
+/// target by the sample's index instead of looking each one up in the correspondence map.
 class RigidSampleModel : public pcl::SampleConsensusModelRegistration<pcl::PointXYZ> {
  public:
   RigidSampleModel(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& source,
@@ -51,9 +53,9 @@ class RigidSampleModel : public pcl::SampleConsensusModelRegistration<pcl::Point
         const float in_source =
             ((*input_)[samples[a]].getVector3fMap() - (*input_)[samples[b]].getVector3fMap())
                 .norm();
-        const float in_target = ((*target_)[correspondences_.at(samples[a])].getVector3fMap() -
-                                 (*target_)[correspondences_.at(samples[b])].getVector3fMap())
-                                    .norm();
+        const float in_target =
+            ((*target_)[samples[a]].getVector3fMap() - (*target_)[samples[b]].getVector3fMap())
+                .norm();
         if (std::abs(in_source - in_target) > tolerance_) return false;
       }
     }

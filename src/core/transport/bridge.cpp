@@ -26,9 +26,12 @@ constexpr std::size_t kMaxUnidentified = 16;
 constexpr double kIdentifyTimeoutS = 5.0;
 constexpr std::size_t kHelloMaxBytes = 1024;
 constexpr std::size_t kReadChunkBytes = 65536;
-// With a clock of unknown speed (mission time), the sender and the keep-alives look at it this
-// often (wall seconds).
+// With a clock of unknown speed (mission time), a sender with something queued looks at it this
+// often (wall seconds; with nothing queued it waits for the next message), and the keep-alives
+// (every peer_timeout_s / 3 of it) this often, which follows replays up to 10 x real time (a
+// look advances the bridge's time by at most kMaxClockStepS).
 constexpr double kClockPollS = 0.01;
+constexpr double kKeepAlivePollS = 0.1;
 // ... and take a larger step of it as a jump (a replay starting or skipping), not as time.
 constexpr double kMaxClockStepS = 1.0;
 
@@ -302,7 +305,7 @@ struct Bridge::Impl {
         write(link, std::make_shared<std::vector<std::uint8_t>>(std::move(out[i])));
       if (link.socket && !link.writing) wait = std::min(wait, link.session.outputDelay(t));
     }
-    if (clock && wait > 0) wait = kClockPollS;
+    if (clock && wait > 0 && std::isfinite(wait)) wait = kClockPollS;
     if (std::isfinite(wait)) {
       pump_timer.expires_after(after(wait));
       pump_timer.async_wait([this](const boost::system::error_code& ec) {
@@ -329,7 +332,7 @@ struct Bridge::Impl {
 
   void keepAlive() {
     const double period_s = params.peer_timeout_s / 3.0;
-    keepalive_timer.expires_after(after(clock ? kClockPollS : period_s));
+    keepalive_timer.expires_after(after(clock ? kKeepAlivePollS : period_s));
     keepalive_timer.async_wait([this, period_s](const boost::system::error_code& ec) {
       if (ec) return;
       std::lock_guard<std::mutex> lock(mutex);
