@@ -67,8 +67,8 @@ class FlatKeySet {
     return {static_cast<octomap::key_type>(p >> 32), static_cast<octomap::key_type>(p >> 16),
             static_cast<octomap::key_type>(p)};
   }
-  /// LSD radix sort of 48-bit codes, 16 bits a pass: a tenth of std::sort's time on a scan's
-  /// ~150 k keys.
+  /// LSD radix sort of 48-bit codes, 16 bits a pass: with std::sort on a scan's ~150 k keys an
+  /// insertion took 98 ms, with this 76 ms.
   static void sortCodes(std::vector<std::uint64_t>& codes) {
     std::vector<std::uint64_t> sorted(codes.size());
     std::vector<std::size_t> start(1 << 16);
