@@ -18,7 +18,6 @@ import os
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -29,16 +28,12 @@ import xml.etree.ElementTree as ET
 import roslib.packages
 import rospy
 
+from rostest_processes import Processes, free_port
+
 BUDGET = 150000.0
 BURST = 131072
 TEAM_KEY = "bridge-test-team-key"
 CUT_AFTER_S = 8.0  # into the traffic
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def executable(name):
@@ -48,7 +43,7 @@ def executable(name):
     return found[0]
 
 
-class BridgeMasters(unittest.TestCase):
+class BridgeMasters(Processes, unittest.TestCase):
     def setUp(self):
         self.netns = rospy.get_param("~netns", False)
         count = 2 if self.netns else rospy.get_param("~robots", 2)
@@ -60,14 +55,7 @@ class BridgeMasters(unittest.TestCase):
         self.processes = []
 
     def tearDown(self):
-        for process in reversed(self.processes):
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGINT)
-        for process in reversed(self.processes):
-            try:
-                process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
+        self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
 
     def check_call(self, command):
