@@ -9,7 +9,8 @@
 // points a leaf, exact search over the finite points, xyz as PCL's default representation of
 // these point types) and answers the same neighbours; it is written by hand because neither PCL
 // nor FLANN offers a single query outside OpenMP. Our code is built without OpenMP, so FLANN's
-// templates instantiated here have no parallel region.
+// templates instantiated here have no parallel region. It always searches x, y, z: a point
+// representation set on it is not used (none of our callers sets one).
 #pragma once
 
 #include <algorithm>
