@@ -158,8 +158,9 @@ void load(ParamReader& reader, BackendSettings& config) {
   reader.read("optimize_period_s", p.optimize_period_s);
   reader.read("max_solve_time_s", p.max_solve_time_s);
   reader.read("max_iterations", p.max_iterations);
-  reader.read("odom_sigma_m_per_m", p.odom_sigma_m_per_m);
-  reader.read("odom_sigma_rad_per_m", p.odom_sigma_rad_per_m);
+  reader.read("odom_sigma_m_per_m", p.odometry.sigma_m_per_m);
+  reader.read("odom_sigma_rad_per_m", p.odometry.sigma_rad_per_m);
+  reader.read("odom_sigma_rad_per_rad", p.odometry.sigma_rad_per_rad);
   reader.read("min_team_inliers", p.min_team_inliers);
   reader.read("team_inlier_margin", p.team_inlier_margin);
   reader.addErrors(p.validate());

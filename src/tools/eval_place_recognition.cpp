@@ -86,12 +86,16 @@ struct Counts {
 
 struct MethodResult {
   Counts best_ranked, candidates, verified, team_frame, own_candidates, own_verified;
+  /// The team transform's distance from the truth, when one was found.
+  std::optional<core::Pose3> team_frame_error;
+  /// The error left with exact loop-closure measurements (odometry drift alone).
+  std::optional<core::Pose3> team_frame_drift_floor;
 };
 
 MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
                       const std::shared_ptr<const pr::PlaceModel>& model,
                       const std::vector<Keyframe>& map, const std::vector<Keyframe>& queries,
-                      double true_distance_m) {
+                      double true_distance_m, const core::Pose3& true_transform) {
   pr::MatcherParams params = base;
   params.method = method;
   pr::PlaceMatcher matcher(params, model);
@@ -109,6 +113,7 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   std::vector<core::alignment::AlignmentCandidate> closures;
   std::vector<bool> closure_true;
   std::vector<bool> closure_correct;
+  std::vector<core::Pose3> closure_truth;
   for (const Keyframe& q : queries) {
     const auto candidates = matcher.matchTeammate(q.described);
     for (const auto& c : candidates) result.candidates.add(near(map[c.keyframe], q));
@@ -132,15 +137,28 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
     closures.push_back(closure);
     closure_true.push_back(near(place, q));
     closure_correct.push_back(correct);
+    closure_truth.push_back(place.world_pose.inverse() * q.world_pose);
   }
   const auto aligned =
       core::alignment::estimateFrameTransform(closures, core::alignment::AlignmentParams{});
-  for (std::size_t k = 0; aligned.found && k < closures.size(); ++k) {
-    if (aligned.inliers[k]) {
-      result.team_frame.add(closure_true[k]);
-      result.team_frame.correct_pose += closure_correct[k];
-    }
+  if (!aligned.found) return result;
+  result.team_frame_error = true_transform.inverse() * aligned.transform;
+  // The same inliers with exact relative poses: what is left is the odometry drift at the
+  // closures, which no estimator of the transform between the start frames can remove.
+  std::vector<core::alignment::AlignmentCandidate> exact;
+  for (std::size_t k = 0; k < closures.size(); ++k) {
+    if (!aligned.inliers[k]) continue;
+    result.team_frame.add(closure_true[k]);
+    result.team_frame.correct_pose += closure_correct[k];
+    exact.push_back(closures[k]);
+    exact.back().measurement = closure_truth[k];
   }
+  core::alignment::AlignmentParams all_inliers;
+  all_inliers.min_inliers = 1;
+  all_inliers.min_inlier_margin = 0;
+  all_inliers.inlier_prior = 0.99;
+  const auto floor = core::alignment::estimateFrameTransform(exact, all_inliers);
+  if (floor.found) result.team_frame_drift_floor = true_transform.inverse() * floor.transform;
   return result;
 }
 
@@ -215,11 +233,12 @@ int main(int argc, char** argv) {
     if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
     const pr::PlaceMatcher describer(params, model);
     std::vector<std::vector<Keyframe>> robots;
+    core::Pose3 world_from_odom[2];
     for (int r = 0; r < 2; ++r) {
       const YAML::Node robot = mission["robots"][r];
+      world_from_odom[r] = poseFromYaml(robot["initial_pose_in_world"]);
       robots.push_back(keyframesOf(fs::path(mission_dir) / robot["bag"].as<std::string>(),
-                                   poseFromYaml(robot["initial_pose_in_world"]), spacing_m,
-                                   odom_noise_per_m, describer));
+                                   world_from_odom[r], spacing_m, odom_noise_per_m, describer));
     }
     const auto& map = robots[0];
     const auto& queries = robots[1];
@@ -242,7 +261,8 @@ int main(int argc, char** argv) {
         words / std::max<std::size_t>(1, map.size() + queries.size()), params.max_candidates);
     const pr::MatchMethod methods[] = {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram};
     for (const pr::MatchMethod method : methods) {
-      const MethodResult r = evaluate(method, params, model, map, queries, true_distance_m);
+      const MethodResult r = evaluate(method, params, model, map, queries, true_distance_m,
+                                      world_from_odom[0].inverse() * world_from_odom[1]);
       auto stage = [&](const char* name, const Counts& c, const char* end) {
         std::printf(
             "      \"%s\": {\"tp\": %d, \"fp\": %d, \"precision\": %.3f, \"recall\": %.3f, "
@@ -257,6 +277,13 @@ int main(int argc, char** argv) {
           r.candidates.fp);
       stage("verified", r.verified, ",");
       stage("team_frame", r.team_frame, ",");
+      auto error = [](const char* name, const std::optional<core::Pose3>& e) {
+        if (!e) return;
+        std::printf("      \"%s\": {\"m\": %.3f, \"deg\": %.2f},\n", name, e->translation().norm(),
+                    Eigen::AngleAxisd(e->linear()).angle() * 180 / M_PI);
+      };
+      error("team_frame_error", r.team_frame_error);
+      error("team_frame_drift_floor", r.team_frame_drift_floor);
       std::printf(
           "      \"own_loops\": {\"candidates_tp\": %d, \"candidates_fp\": %d, \"verified_tp\": "
           "%d, \"verified_fp\": %d}\n    }%s\n",

@@ -136,7 +136,11 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
   spec.outliers = 45;
   spec.seed = 5;
   const auto s = alignment::makeSyntheticCandidates(spec);
-  TeamGraph graph("robot_a", BackendParams{});
+  // The synthetic poses are exact, and robot b's keyframes hop 2 m around robot a's path: with
+  // the default odometry noise their drift would swamp the 10 cm loops.
+  BackendParams params;
+  params.odometry = {1e-3, 1e-4, 1e-3};
+  TeamGraph graph("robot_a", params);
   for (std::size_t i = 0; i < s.poses_a.size(); ++i) {
     ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(100.0 + i), s.poses_a[i]));
     ASSERT_TRUE(graph.addPeerKeyframe("robot_b", i, s.poses_b[i]));
@@ -178,6 +182,47 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
     EXPECT_TRUE(line.inter_robot && line.accepted);
     EXPECT_LT((line.from - line.to).norm(), 10.0);
   }
+}
+
+TEST(TeamGraph, LoopsSeenAfterTheTeammatesDriftAgreeAndTheLeastDriftedWeighMost) {
+  // Both robots drive one 60 m corridor; robot b's odometry turns 0.1 deg too far per metre
+  // (6 deg and 3.6 m off at the end). Every place is closed exactly (1 cm, 0.06 deg): without
+  // the drift in the candidates' covariances only the first few loops would agree.
+  const Pose3 truth =
+      Pose3(Eigen::Translation3d(5, 2, 0)) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
+  TeamGraph graph("robot_a", BackendParams{});
+  std::vector<Pose3> odom_b;
+  for (int i = 0; i < 60; ++i) {
+    const Pose3 a(Eigen::Translation3d(i, 0, 0));
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(i), a));
+    const Pose3 true_b = truth.inverse() * a;
+    odom_b.push_back(
+        i == 0
+            ? true_b
+            : odom_b.back() * Eigen::AngleAxisd(0.1 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+                  (truth.inverse() * Pose3(Eigen::Translation3d(i - 1, 0, 0))).inverse() * true_b);
+    LoopClosureData loop;
+    loop.robot_from = "robot_a";
+    loop.keyframe_from = i;
+    loop.robot_to = "robot_b";
+    loop.keyframe_to = 100 + i;
+    loop.relative = a.inverse() * truth * true_b;
+    loop.covariance = alignment::Matrix6::Identity() * 1e-6;
+    ASSERT_TRUE(graph.addLoopClosure(loop));
+  }
+  for (int i = 59; i >= 0; --i) ASSERT_TRUE(graph.addPeerKeyframe("robot_b", 100 + i, odom_b[i]));
+  const auto end_drift =
+      (truth.inverse() * Pose3(Eigen::Translation3d(59, 0, 0))).inverse() * odom_b.back();
+  ASSERT_GT(end_drift.translation().norm(), 3.0);
+
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_EQ(snapshot.team.size(), 1U);
+  const auto& alignment = snapshot.team.front().alignment;
+  ASSERT_TRUE(alignment.found) << alignment.reason;
+  EXPECT_GE(alignment.inlier_count, 50);
+  const Pose3 error = truth.inverse() * alignment.transform;
+  EXPECT_LT(error.translation().norm(), 0.3);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, 1.0);
 }
 
 TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {

@@ -17,6 +17,7 @@
 
 #include "ccir_mapping/core/backend/dcs_loss.h"
 #include "ccir_mapping/core/backend/g2o_io.h"
+#include "ccir_mapping/core/backend/odometry_uncertainty.h"
 #include "ccir_mapping/core/backend/outlier_injector.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
 #include "ccir_mapping/core/backend/trajectory_error.h"
@@ -397,6 +398,65 @@ TEST(PoseGraph, CovariancesNeedTheGaugeAndGrowAlongTheChain) {
   const auto fixed = optimizer.marginalCovariances(s.graph, {0});  // the gauge: no uncertainty
   ASSERT_TRUE(fixed);
   EXPECT_NEAR(fixed->front().norm(), 0.0, 1e-12);
+}
+
+TEST(OdometryUncertainty, PropagationMatchesSampledChains) {
+  // 40 steps of 1 m around a square (turns of 90 degrees), each step perturbed as the model
+  // says: position error in its start frame, rotation error before the step's rotation.
+  const OdometryNoise noise;
+  std::vector<Pose3> path{Pose3::Identity()};
+  for (int k = 1; k <= 40; ++k) {
+    path.push_back(path.back() * pose(1.0, 0.0, 0.0, k % 10 == 0 ? M_PI / 2 : 0.0));
+  }
+  OdometryUncertainty chain(noise);
+  for (const Pose3& p : path) chain.advance(p);
+  const Covariance6 predicted = chain.covariance();
+
+  std::mt19937 rng(3);
+  std::normal_distribution<double> unit;
+  Covariance6 sampled = Covariance6::Zero();
+  const int samples = 4000;
+  for (int s = 0; s < samples; ++s) {
+    Pose3 noisy = path.front();
+    for (std::size_t k = 1; k < path.size(); ++k) {
+      const Pose3 step = path[k - 1].inverse() * path[k];
+      const Covariance6 c = stepCovariance(step, noise);
+      Eigen::Matrix<double, 6, 1> e;
+      for (int i = 0; i < 6; ++i) e[i] = std::sqrt(c(i, i)) * unit(rng);
+      Pose3 perturbed = Pose3::Identity();
+      perturbed.translation() = step.translation() + e.head<3>();
+      const Eigen::Vector3d angle = e.tail<3>();
+      perturbed.linear() =
+          Eigen::AngleAxisd(angle.norm(), angle.normalized()).toRotationMatrix() * step.linear();
+      noisy = noisy * perturbed;
+    }
+    Eigen::Matrix<double, 6, 1> error;
+    error.head<3>() = noisy.translation() - path.back().translation();
+    const Eigen::AngleAxisd rotation(noisy.linear() * path.back().linear().transpose());
+    error.tail<3>() = rotation.angle() * rotation.axis();
+    sampled += error * error.transpose() / samples;
+  }
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(predicted(i, i), sampled(i, i), 0.15 * sampled(i, i)) << "axis " << i;
+  }
+  EXPECT_LT((predicted - sampled).norm(), 0.1 * sampled.norm());
+  // Heading error turned into lateral error: after 40 m, metres, not the 0.3 m of position
+  // noise alone.
+  EXPECT_GT(predicted(0, 0) + predicted(1, 1), 1.0);
+
+  OdometryUncertainty fresh(noise);
+  EXPECT_EQ(fresh.advance(path[5]).norm(), 0.0) << "the chain's first pose is its origin";
+}
+
+TEST(OdometryUncertainty, BodyFrameRotatesTheBlocks) {
+  Covariance6 world = Covariance6::Zero();
+  world.diagonal() << 4, 1, 1, 0.1, 0.2, 0.3;
+  const Covariance6 body = inBodyFrame(world, pose(0, 0, 0, M_PI / 2).linear());
+  EXPECT_NEAR(body(0, 0), 1.0, 1e-12);  // the body's x axis points along the world's y
+  EXPECT_NEAR(body(1, 1), 4.0, 1e-12);
+  EXPECT_NEAR(body(3, 3), 0.2, 1e-12);
+  EXPECT_NEAR(body(4, 4), 0.1, 1e-12);
+  EXPECT_NEAR(body(5, 5), 0.3, 1e-12);
 }
 
 TEST(Outliers, InjectionFollowsTheConvention) {

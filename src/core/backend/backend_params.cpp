@@ -35,8 +35,9 @@ const char* toString(RobustKernel kernel) {
 std::vector<std::string> BackendParams::validate() const {
   ParamCheck check;
   check.inRange("switch_prior_sigma", switch_prior_sigma, 0.0, 100.0);
-  check.inHalfOpenRange("odom_sigma_m_per_m", odom_sigma_m_per_m, 0.0, 10.0);
-  check.inHalfOpenRange("odom_sigma_rad_per_m", odom_sigma_rad_per_m, 0.0, 10.0);
+  check.inHalfOpenRange("odom_sigma_m_per_m", odometry.sigma_m_per_m, 0.0, 10.0);
+  check.inHalfOpenRange("odom_sigma_rad_per_m", odometry.sigma_rad_per_m, 0.0, 10.0);
+  check.inRange("odom_sigma_rad_per_rad", odometry.sigma_rad_per_rad, 0.0, 10.0);
   check.inRange("min_team_inliers", min_team_inliers, 3, 100000);
   check.inRange("team_inlier_margin", team_inlier_margin, 0, 100000);
   check.inRange("optimize_period_s", optimize_period_s, 0.01, 3600.0);

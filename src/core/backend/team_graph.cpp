@@ -1,7 +1,6 @@
 #include "ccir_mapping/core/backend/team_graph.h"
 
 #include <chrono>
-#include <cmath>
 #include <stdexcept>
 
 #include <Eigen/Geometry>
@@ -23,7 +22,10 @@ OptimizerParams optimizerParams(const BackendParams& p) {
 }  // namespace
 
 TeamGraph::TeamGraph(std::string robot, const BackendParams& params)
-    : robot_(std::move(robot)), params_(validated(params)), optimizer_(optimizerParams(params)) {
+    : robot_(std::move(robot)),
+      params_(validated(params)),
+      optimizer_(optimizerParams(params)),
+      odom_uncertainty_(params.odometry) {
   graph_.dimension = 3;
 }
 
@@ -34,24 +36,18 @@ bool TeamGraph::addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose) 
   } else {
     const Pose3 step = odom_poses_.back().inverse() * odom_pose;
     graph_.poses.push_back(graph_.poses.back() * step);  // continue from the optimised pose
-    const double distance = step.translation().norm();
-    const double angle = Eigen::AngleAxisd(step.linear()).angle();
-    const double sigma_t = std::max(0.01, params_.odom_sigma_m_per_m * distance);
-    const double sigma_r =
-        std::max(0.1 * M_PI / 180.0, params_.odom_sigma_rad_per_m * distance + 0.05 * angle);
     PoseGraphEdge edge;
     edge.from = static_cast<int>(ids_.size()) - 1;
     edge.to = static_cast<int>(ids_.size());
     edge.measurement = step;
-    edge.information = Information::Zero(6, 6);
-    edge.information.diagonal() << Eigen::Vector3d::Constant(1.0 / (sigma_t * sigma_t)),
-        Eigen::Vector3d::Constant(1.0 / (sigma_r * sigma_r));
+    edge.information = stepCovariance(step, params_.odometry).inverse();
     graph_.edges.push_back(edge);
   }
   index_[id] = static_cast<int>(ids_.size());
   ids_.push_back(id);
   stamps_.push_back(stamp);
   odom_poses_.push_back(odom_pose);
+  odom_covariances_.push_back(odom_uncertainty_.advance(odom_pose));
   return true;
 }
 
@@ -110,7 +106,15 @@ BackendSnapshot TeamGraph::optimize() {
     }
   }
 
-  // Inter-robot loops, oriented from this robot to the peer, against the optimised poses.
+  // Inter-robot loops, oriented from this robot to the peer, against the optimised poses; each
+  // with the drift of both keyframes since their robots' starts (the peer's from its keyframes'
+  // poses, with this robot's odometry model), so that a true loop seen after long drift still
+  // agrees and the least drifted loops weigh most.
+  std::map<std::string, std::map<KeyframeId, Covariance6>> peer_covariances;
+  for (const auto& [peer, keyframes] : peers_) {
+    OdometryUncertainty chain(params_.odometry);
+    for (const auto& [id, pose] : keyframes) peer_covariances[peer][id] = chain.advance(pose);
+  }
   for (const auto& loop : loops_) {
     const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
     const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
@@ -128,6 +132,10 @@ BackendSnapshot TeamGraph::optimize() {
     c.pose_b = other->second;
     c.measurement = outgoing ? loop.relative : loop.relative.inverse();
     c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
+    const std::size_t i = static_cast<std::size_t>(own->second);
+    c.covariance_a = inBodyFrame(odom_covariances_[i], odom_poses_[i].linear());
+    c.covariance_b = inBodyFrame(peer_covariances[peer][theirs],
+                                 c.pose_b.linear() * c.measurement.linear().transpose());
     candidates[peer].push_back(c);
   }
   for (const auto& [peer, list] : candidates) {

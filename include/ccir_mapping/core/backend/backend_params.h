@@ -6,6 +6,8 @@
 #include <string_view>
 #include <vector>
 
+#include "ccir_mapping/core/backend/odometry_uncertainty.h"
+
 namespace ccir_mapping::core::backend {
 
 /// How loop closures enter the pose graph: switchable constraints (default), plain least
@@ -20,10 +22,8 @@ struct BackendParams {
   /// Standard deviation of the prior that pulls each switch variable towards 1; 0: auto (a loop
   /// as likely as its covariance says stays on, see pose_graph_optimizer.h).
   double switch_prior_sigma = 0.0;
-  /// Odometry between keyframes: standard deviation per metre travelled (position, per axis,
-  /// and heading); floors of 1 cm and 0.1 deg keep short steps from being over-confident.
-  double odom_sigma_m_per_m = 0.05;
-  double odom_sigma_rad_per_m = 0.01;
+  /// Odometry between keyframes (odom_sigma_m_per_m, odom_sigma_rad_per_m).
+  OdometryNoise odometry;
   /// A team transform needs this many inter-robot loop closures agreeing, and this many more
   /// than any other transform.
   int min_team_inliers = 10;

@@ -86,6 +86,8 @@ class TeamGraph {
   std::vector<KeyframeId> ids_;
   std::vector<Stamp> stamps_;
   std::vector<Pose3> odom_poses_;
+  OdometryUncertainty odom_uncertainty_;
+  std::vector<Covariance6> odom_covariances_;  // of odom_poses_, world frame
   std::map<KeyframeId, int> index_;
   std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
   std::vector<LoopClosureData> loops_;  // all of them; resolved at each optimisation
