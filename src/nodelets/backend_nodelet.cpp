@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <variant>
 
@@ -68,6 +69,12 @@ class BackendNodelet final : public PipelineNodelet {
                              &BackendNodelet::onPeerKeyframe, this);
     loop_sub_ = nh.subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize,
                              &BackendNodelet::onLoopClosure, this);
+    // Inter-robot closures go to the teammates too: each robot verifies only the scans it
+    // received, so without them a pair's two robots each see part of its closures.
+    outbox_loop_pub_ =
+        nh.advertise<LoopClosure>(topics::kOutboxLoopClosures, topics::kLoopClosureQueueSize);
+    inbox_loop_sub_ = nh.subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
+                                   &BackendNodelet::onTeammateLoopClosure, this);
     worker_ = std::thread([this] { run(); });
     createPeriodicTimer(settings_.core.optimize_period_s, [this] {
       {
@@ -113,34 +120,71 @@ class BackendNodelet final : public PipelineNodelet {
     queue(PeerKeyframe{keyframe->robot, keyframe->id, *pose}, false);
   }
 
-  void onLoopClosure(const LoopClosure::ConstPtr& msg) {
-    count("in loop_closures");
-    const auto pose = conversions::toPose(msg->relative_pose);
+  /// The closure in the core's terms, or nullopt (warned, counted in `flow`).
+  std::optional<core::backend::LoopClosureData> toLoop(const LoopClosure& msg, const char* flow) {
+    const auto pose = conversions::toPose(msg.relative_pose);
     core::backend::LoopClosureData loop;
-    loop.robot_from = msg->robot_from;
-    loop.keyframe_from = msg->keyframe_from;
-    loop.robot_to = msg->robot_to;
-    loop.keyframe_to = msg->keyframe_to;
+    loop.robot_from = msg.robot_from;
+    loop.keyframe_from = msg.keyframe_from;
+    loop.robot_to = msg.robot_to;
+    loop.keyframe_to = msg.keyframe_to;
     for (int r = 0; r < 6; ++r) {
-      for (int c = 0; c < 6; ++c) loop.covariance(r, c) = msg->covariance[r * 6 + c];
+      for (int c = 0; c < 6; ++c) loop.covariance(r, c) = msg.covariance[r * 6 + c];
     }
     const Eigen::LLT<core::alignment::Matrix6> llt(loop.covariance);
-    const bool mine = loop.robot_from == settings_.frames.robot_name ||
-                      loop.robot_to == settings_.frames.robot_name;
     // LLT does not notice NaN entries.
     const bool covariance_ok = loop.covariance.allFinite() && llt.info() == Eigen::Success;
-    if (!pose || !covariance_ok || !mine) {
-      NODELET_WARN_THROTTLE(5.0, "dropping loop closure %s/%lu -> %s/%lu: %s",
-                            msg->robot_from.c_str(), static_cast<unsigned long>(msg->keyframe_from),
-                            msg->robot_to.c_str(), static_cast<unsigned long>(msg->keyframe_to),
-                            !pose   ? "relative pose not finite"
-                            : !mine ? "it does not involve this robot"
-                                    : "covariance not finite and positive definite");
+    if (!pose || !covariance_ok) {
+      NODELET_WARN_THROTTLE(
+          5.0, "dropping loop closure %s/%lu -> %s/%lu from %s: %s", msg.robot_from.c_str(),
+          static_cast<unsigned long>(msg.keyframe_from), msg.robot_to.c_str(),
+          static_cast<unsigned long>(msg.keyframe_to), flow,
+          !pose ? "relative pose not finite" : "covariance not finite and positive definite");
+      count(std::string("dropped ") + flow);
+      return std::nullopt;
+    }
+    loop.relative = *pose;
+    return loop;
+  }
+
+  void onLoopClosure(const LoopClosure::ConstPtr& msg) {
+    count("in loop_closures");
+    const std::string& self = settings_.frames.robot_name;
+    if (msg->robot_from != self && msg->robot_to != self) {
+      NODELET_WARN_THROTTLE(5.0, "dropping loop closure %s -> %s: it does not involve this robot",
+                            msg->robot_from.c_str(), msg->robot_to.c_str());
       count("dropped loop_closures");
       return;
     }
-    loop.relative = *pose;
-    queue(loop, true);
+    const auto loop = toLoop(*msg, "loop_closures");
+    if (!loop) return;
+    queue(*loop, true);
+    if (msg->robot_from != msg->robot_to) {
+      count("out outbox/loop_closures");
+      outbox_loop_pub_.publish(msg);
+    }
+  }
+
+  /// A closure a teammate found (its keyframe "from", with its odometry pose): used when it
+  /// joins this robot, ignored when it is between two others.
+  void onTeammateLoopClosure(const LoopClosure::ConstPtr& msg) {
+    count("in inbox/loop_closures");
+    const std::string& self = settings_.frames.robot_name;
+    if (msg->robot_to != self || msg->robot_from == self) {
+      count("ignored inbox/loop_closures (not with this robot)");
+      return;
+    }
+    const auto pose_from = conversions::toPose(msg->odom_pose_from);
+    const auto loop = toLoop(*msg, "inbox/loop_closures");
+    if (!loop) return;
+    if (!pose_from) {
+      NODELET_WARN_THROTTLE(5.0, "dropping %s's loop closure: odom_pose_from is not valid",
+                            msg->robot_from.c_str());
+      count("dropped inbox/loop_closures");
+      return;
+    }
+    queue(PeerKeyframe{msg->robot_from, msg->keyframe_from, *pose_from}, false);
+    queue(*loop, true);
   }
 
   // The worker: owns graph_, optimises when there is something new, at the period's ticks
@@ -180,7 +224,9 @@ class BackendNodelet final : public PipelineNodelet {
       // The callback checked pose, covariance and ownership; the graph also refuses a keyframe
       // looped to itself.
       const auto& loop = std::get<core::backend::LoopClosureData>(input);
-      if (!graph_->addLoopClosure(loop)) {
+      if (graph_->knows(loop)) {
+        count("duplicate loop_closures");  // the teammate found it too
+      } else if (!graph_->addLoopClosure(loop)) {
         NODELET_WARN_THROTTLE(5.0, "loop closure %s/%lu -> %s/%lu rejected by the graph",
                               loop.robot_from.c_str(),
                               static_cast<unsigned long>(loop.keyframe_from), loop.robot_to.c_str(),
@@ -331,6 +377,8 @@ class BackendNodelet final : public PipelineNodelet {
   ros::Subscriber keyframe_sub_;
   ros::Subscriber peer_sub_;
   ros::Subscriber loop_sub_;
+  ros::Publisher outbox_loop_pub_;
+  ros::Subscriber inbox_loop_sub_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_stamp_;  // of the last transforms sent (worker thread only)
 };

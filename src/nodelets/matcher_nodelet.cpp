@@ -98,6 +98,9 @@ class MatcherNodelet final : public PipelineNodelet {
     loop->robot_to = best->robot.empty() ? query_robot : best->robot;
     loop->keyframe_to = own_query && !best->robot.empty() ? best->keyframe : query;
     loop->relative_pose = conversions::toPoseMsg(best->verification.relative);
+    if (const auto from = matcher_->placeOdomPose(loop->keyframe_from)) {
+      loop->odom_pose_from = conversions::toPoseMsg(*from);
+    }
     for (int r = 0; r < 6; ++r) {
       for (int c = 0; c < 6; ++c) loop->covariance[r * 6 + c] = best->verification.covariance(r, c);
     }
@@ -139,11 +142,12 @@ class MatcherNodelet final : public PipelineNodelet {
     }
     // Teammates' scans kept so far may show this place too (they came before this robot did).
     const std::string& self = settings_.frames.robot_name;
-    publishBest(measured("match", [&] { return matcher_->matchKeptScans(*described); }), self,
-                keyframe->id, keyframe->header.stamp);
+    const auto kept = measured("match", [&] { return matcher_->matchKeptScans(*described); });
     const auto candidates =
         measured("match", [&] { return matcher_->addOwn(std::move(*described)); });
     places_ = matcher_->places();
+    // Published once the keyframe is a place, so that each closure carries its pose.
+    publishBest(kept, self, keyframe->id, keyframe->header.stamp);
     publishBest(candidates, self, keyframe->id, keyframe->header.stamp);
   }
 

@@ -231,11 +231,10 @@ void load(ParamReader& reader, BridgeSettings& config) {
   // Without a `topics` list, every outbox topic of the protocol is forwarded.
   if (!reader.raw("topics")) {
     using core::transport::Priority;
-    p.topics.resize(5);
-    const char* names[] = {"outbox/features", "outbox/offers", "outbox/requests", "outbox/receipts",
-                           "outbox/scans"};
-    for (int i = 0; i < 5; ++i) p.topics[i].topic = names[i];
-    p.topics[4].policy.priority = Priority::kBulk;
+    const char* names[] = {"outbox/features", "outbox/offers",        "outbox/requests",
+                           "outbox/receipts", "outbox/loop_closures", "outbox/scans"};
+    for (const char* name : names) p.topics.emplace_back().topic = name;
+    p.topics.back().policy.priority = Priority::kBulk;
   }
   forEachEntry(reader, "topics", [&](const std::string& name, const XmlRpc::XmlRpcValue& entry) {
     core::transport::ForwardedTopic topic;

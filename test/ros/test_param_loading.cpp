@@ -116,7 +116,11 @@ TEST(ParamLoading, BridgeDefaultsForwardTheWholeProtocol) {
   BridgeSettings settings;
   load(reader, settings);
   EXPECT_TRUE(reader.errors().empty());
-  EXPECT_EQ(settings.core.topics.size(), 5u);
+  ASSERT_EQ(settings.core.topics.size(), 6u);
+  EXPECT_EQ(settings.core.topics[4].topic, "outbox/loop_closures");
+  EXPECT_EQ(settings.core.topics[4].policy.priority, core::transport::Priority::kControl);
+  EXPECT_EQ(settings.core.topics[5].topic, "outbox/scans");
+  EXPECT_EQ(settings.core.topics[5].policy.priority, core::transport::Priority::kBulk);
 }
 
 TEST(ParamLoading, MalformedBridgeLists) {

@@ -31,6 +31,8 @@ constexpr char kOutboxOffers[] = "outbox/offers";
 constexpr char kOutboxRequests[] = "outbox/requests";
 constexpr char kOutboxScans[] = "outbox/scans";
 constexpr char kOutboxReceipts[] = "outbox/receipts";
+/// Inter-robot loop closures this robot found, to every teammate (each uses those with it).
+constexpr char kOutboxLoopClosures[] = "outbox/loop_closures";
 
 /// "outbox/to/<peer>/<rest>": what the Bridge carries to that peer alone, as "inbox/<rest>".
 inline std::string outboxTo(const std::string& peer, const std::string& rest) {
@@ -43,6 +45,7 @@ constexpr char kInboxOffers[] = "inbox/offers";
 constexpr char kInboxRequests[] = "inbox/requests";
 constexpr char kInboxScans[] = "inbox/scans";
 constexpr char kInboxReceipts[] = "inbox/receipts";
+constexpr char kInboxLoopClosures[] = "inbox/loop_closures";
 
 // Queue sizes: keyframes are few and precious; stats only matter when fresh (scans: the
 // Preprocessor's scan_queue_size).

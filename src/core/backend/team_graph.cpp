@@ -65,10 +65,19 @@ bool TeamGraph::addLoopClosure(const LoopClosureData& loop) {
     return false;
   }
   const Eigen::LLT<alignment::Matrix6> llt(loop.covariance);
-  if (llt.info() != Eigen::Success) return false;
+  if (llt.info() != Eigen::Success || knows(loop)) return false;
   loops_.push_back(loop);
+  loop_keys_.insert(keyOf(loop));
   return true;
 }
+
+TeamGraph::LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
+  KeyframeOf from{loop.robot_from, loop.keyframe_from};
+  KeyframeOf to{loop.robot_to, loop.keyframe_to};
+  return from < to ? LoopKey{from, to} : LoopKey{to, from};
+}
+
+bool TeamGraph::knows(const LoopClosureData& loop) const { return loop_keys_.count(keyOf(loop)); }
 
 BackendSnapshot TeamGraph::optimize() {
   BackendSnapshot snapshot;

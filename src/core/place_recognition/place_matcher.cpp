@@ -84,6 +84,12 @@ PlaceMatcher::~PlaceMatcher() = default;
 std::size_t PlaceMatcher::places() const { return own_->places.size(); }
 std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
 
+std::optional<Pose3> PlaceMatcher::placeOdomPose(KeyframeId id) const {
+  const auto it = own_->index_of.find({std::string(), id});
+  if (it == own_->index_of.end()) return std::nullopt;
+  return own_->places[it->second].odom_pose;
+}
+
 DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
                                          const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                          const Eigen::Vector3f& up) const {

@@ -4,6 +4,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,9 @@ class TeamGraph {
   /// Intra- or inter-robot; kept until both keyframes are known. False when it concerns neither
   /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose).
   bool addLoopClosure(const LoopClosureData& loop);
+  /// Whether a closure between the same two keyframes (either direction) was added: both robots
+  /// of a pair may find and share it, and it must count once.
+  bool knows(const LoopClosureData& loop) const;
 
   /// Optimises the graph and re-estimates every team transform.
   BackendSnapshot optimize();
@@ -91,6 +95,11 @@ class TeamGraph {
   std::map<KeyframeId, int> index_;
   std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
   std::vector<LoopClosureData> loops_;  // all of them; resolved at each optimisation
+  /// The two keyframes of each of loops_, in a fixed order.
+  using KeyframeOf = std::pair<std::string, KeyframeId>;
+  using LoopKey = std::pair<KeyframeOf, KeyframeOf>;
+  static LoopKey keyOf(const LoopClosureData& loop);
+  std::set<LoopKey> loop_keys_;
   std::vector<double> last_weights_;
   PoseGraph last_graph_;  // graph_ with the loops of the last optimisation
 };

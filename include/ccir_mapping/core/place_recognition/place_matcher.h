@@ -60,6 +60,8 @@ class PlaceMatcher {
 
   const PlaceModel& model() const { return *model_; }
   std::size_t places() const;
+  /// The odometry pose of an own place (keyframe), if it is one and had one.
+  std::optional<Pose3> placeOdomPose(KeyframeId id) const;
 
   /// Features (with the model's settings), words and verification cloud of a keyframe cloud in
   /// its sensor frame; `up` is gravity's opposite in that frame.
