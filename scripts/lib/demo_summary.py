@@ -46,6 +46,29 @@ def team_frames(robot, report, plans):
     return known
 
 
+def odometry_drift_m(out, name, keyframes):
+    """How far the robot's odometry had drifted from the truth at its last keyframe (m, in the
+    plane): a transform found from loop closures inherits both robots' drift where they closed."""
+    if not keyframes:
+        return None
+    truth = np.loadtxt("%s/mission/%s_gt.txt" % (out, name))
+    last = keyframes[-1]
+    row = truth[np.argmin(np.abs(truth[:, 0] - last["stamp"]))]
+    return float(np.hypot(last["x"] - row[1], last["y"] - row[2]))
+
+
+def world_path(out, plan):
+    """The robot's true positions in the world (every 10th ground-truth pose)."""
+    truth = np.loadtxt("%s/mission/%s_gt.txt" % (out, plan["name"]))[::10, 1:4]
+    start = start_pose(plan)
+    return truth @ start[:3, :3].T + start[:3, 3]
+
+
+def paths_meet(a, b, within_m=3.0):
+    """Whether two paths come within `within_m` of each other (the loop-closure truth radius)."""
+    return any(np.min(np.linalg.norm(b - p, axis=1)) <= within_m for p in a)
+
+
 def stage_cpu(nodelets):
     """CPU seconds of each nodelet's stages, from the "cpu s <stage>" diagnostics."""
     return {"%s %s" % (name, key[len("cpu s "):]): float(value)
@@ -83,6 +106,8 @@ def main():
             "inbox_features": report.get("inbox_features", 0),
             "links": report.get("links", {}),
             "team_frames": team_frames(plan["name"], report, plans),
+            "odometry_drift_m": odometry_drift_m(args.out, plan["name"],
+                                                 report.get("keyframe_list", [])),
             "scans_missed": flow.get("missed scans (gaps in stamps)", 0),
             "manager_cpu_s": report.get("manager_cpu_s"),
             "stage_cpu_s": stage_cpu(report["nodelets"]),
@@ -127,6 +152,8 @@ def main():
     budgets = {l.get("budget_bytes_per_s") for r in robots for l in r["links"].values()}
     lines.append("  bridges (budget %s KB/s per robot):" % "/".join(
         "%.0f" % (b / 1e3) for b in sorted(b for b in budgets if b) or [150000]))
+    drift = {r["name"]: r["odometry_drift_m"] for r in robots}
+    path = {name: world_path(args.out, plan) for name, plan in plans.items()}
     lines.append("  %-9s %-9s %9s %9s %9s %9s %7s %6s" % (
         "robot", "peer", "connected", "sent KB", "recv KB", "messages", "queued", "drops"))
     for r in robots:
@@ -154,13 +181,18 @@ def main():
         for t in r["team_frames"]:
             if "error_m" in t:
                 lines.append("  %-9s knows %s's map frame from %d of %d loop closures: %.2f m, "
-                             "%.1f deg from the truth" % (r["name"], t["peer"], t["inliers"],
-                                                          t["candidates"], t["error_m"],
-                                                          t["error_deg"]))
+                             "%.1f deg from the truth (odometry drift at the end: %s)" % (
+                                 r["name"], t["peer"], t["inliers"], t["candidates"],
+                                 t["error_m"], t["error_deg"], ", ".join(
+                                     "%s %.2f m" % (n, drift[n]) for n in (r["name"], t["peer"])
+                                     if drift.get(n) is not None)))
             else:
                 lines.append("  %-9s does not know %s's map frame yet: %d inter-robot loop "
-                             "closures, %d agreeing ones needed" % (r["name"], t["peer"],
-                                                                   t["candidates"], needed))
+                             "closures, %d agreeing ones needed%s" % (
+                                 r["name"], t["peer"], t["candidates"], needed,
+                                 "" if t["peer"] not in path or
+                                 paths_meet(path[r["name"]], path[t["peer"]])
+                                 else " (their paths never come within 3 m)"))
     lines.append("  CPU (nodelet manager, per mission second: the share of a core at real time; "
                  "replayed at %.1f x):" % rate)
     for r in robots:
