@@ -3,6 +3,7 @@
 // mutual information of mapped and new places; lazy greedy ranking equals naive greedy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -138,6 +139,23 @@ MapperParams params() {
   p.resolution_m = 0.2;
   p.max_insert_range_m = 20.0;
   return p;
+}
+
+TEST(EntropyCache, EqualsTheEntropyOfTheProbabilityAlsoWhenSlotsCollide) {
+  // More distinct values than slots, each asked twice in two orders: a stale slot would show.
+  EntropyCache cache;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> log_odds(-8.0F, 8.0F);
+  std::vector<float> values{0.0F, -2.0F, 3.5F, 0.85F, -0.4F};
+  for (int i = 0; i < 5000; ++i) values.push_back(log_odds(rng));
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const float l : values) {
+      const double p = 1.0 - 1.0 / (1.0 + std::exp(static_cast<double>(l)));
+      ASSERT_DOUBLE_EQ(cache(l), occupancyEntropyBits(p)) << l;
+    }
+    std::reverse(values.begin(), values.end());
+  }
+  EXPECT_DOUBLE_EQ(cache(0.0F), 1.0);
 }
 
 TEST(OccupancyMap, EmptyBoxHoldsOneBitPerVoxel) {

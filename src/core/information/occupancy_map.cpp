@@ -15,13 +15,18 @@ octomap::point3d toOctomap(const Eigen::Vector3d& v) {
   return {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
 }
 
-double probability(float log_odds) { return 1.0 - 1.0 / (1.0 + std::exp(log_odds)); }
+/// As OctoMap computes it (in double).
+double probability(double log_odds) { return 1.0 - 1.0 / (1.0 + std::exp(log_odds)); }
 
 }  // namespace
 
 double occupancyEntropyBits(double p) {
   if (p <= 0.0 || p >= 1.0) return 0.0;
   return -p * std::log2(p) - (1 - p) * std::log2(1 - p);
+}
+
+double EntropyCache::entropyOf(float log_odds) {
+  return occupancyEntropyBits(probability(log_odds));
 }
 
 OccupancyMap::OccupancyMap(const MapperParams& params)
@@ -56,9 +61,9 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
   // A voxel the map has at the finest depth is updated in place, as updateNode with lazy
   // evaluation would (add the log-odds, clamp; inner nodes wait): one descent instead of two.
   if (octomap::OcTreeNode* leaf = finestLeaf(key)) {
-    const double h_before = in_box ? occupancyEntropyBits(leaf->getOccupancy()) : 0.0;
+    const double h_before = in_box ? entropy_(leaf->getLogOdds()) : 0.0;
     tree_.updateNodeLogOdds(leaf, hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
-    if (in_box) box_entropy_bits_ += occupancyEntropyBits(leaf->getOccupancy()) - h_before;
+    if (in_box) box_entropy_bits_ += entropy_(leaf->getLogOdds()) - h_before;
     return;
   }
   if (!in_box) {
@@ -66,10 +71,10 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
     return;
   }
   const octomap::OcTreeNode* before = tree_.search(key);  // a pruned leaf, or nothing
-  const double h_before = before ? occupancyEntropyBits(before->getOccupancy()) : 1.0;
+  const double h_before = before ? entropy_(before->getLogOdds()) : 1.0;
   box_known_voxels_ += before ? 0.0 : 1.0;
   const octomap::OcTreeNode* after = tree_.updateNode(key, hit, /*lazy_eval=*/true);
-  box_entropy_bits_ += occupancyEntropyBits(after->getOccupancy()) - h_before;
+  box_entropy_bits_ += entropy_(after->getLogOdds()) - h_before;
 }
 
 int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,

@@ -14,6 +14,7 @@
 
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/information/csqmi.h"
+#include "ccir_mapping/core/information/entropy_cache.h"
 #include "ccir_mapping/core/information/flat_key_set.h"
 #include "ccir_mapping/core/information/map_information.h"
 #include "ccir_mapping/core/information/mapper_params.h"
@@ -120,6 +121,7 @@ class OccupancyMap final : public MapInformation {
   octomap::OcTreeKey box_max_key_;
   double box_entropy_bits_ = 0.0;
   double box_known_voxels_ = 0.0;
+  EntropyCache entropy_;
 };
 
 /// Binary entropy, in bits, of an occupancy probability.
