@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -89,6 +90,10 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
     peer_keyframes.publish(keyframe("robot_b", i, s.poses_b[i]));
   }
   // True and false closures interleaved, as place recognition finds them.
+  // The random candidates repeat a pair now and then: the Backend counts each pair once.
+  std::set<std::pair<int, int>> pairs;
+  for (std::size_t k = 0; k < s.candidates.size(); ++k) pairs.insert({s.index_a[k], s.index_b[k]});
+  const auto distinct = static_cast<std::uint32_t>(pairs.size());
   std::vector<std::size_t> order(s.candidates.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = (k * 7) % order.size();
   for (const std::size_t k : order) {
@@ -120,7 +125,7 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
 
   // The Backend optimises as soon as a loop closure arrives: the first valid transform may
   // come before the last of the 60 did. Await the one that holds all of them.
-  ASSERT_TRUE(waitFor([&] { return team && team->valid && team->candidates == 60U; }, 60.0))
+  ASSERT_TRUE(waitFor([&] { return team && team->valid && team->candidates == distinct; }, 60.0))
       << "no valid team transform (last: "
       << (team ? std::to_string(team->inliers) + " inliers of " + std::to_string(team->candidates)
                : std::string("none"))
@@ -129,7 +134,8 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_EQ(team->header.frame_id, "robot_a/map");
   EXPECT_EQ(team->child_frame_id, "robot_b/map");
   EXPECT_GE(team->inliers, 12U);
-  EXPECT_EQ(team->candidates, 60U);
+  EXPECT_EQ(team->candidates, distinct);
+  EXPECT_GE(distinct, 55U);
   EXPECT_TRUE(waitFor([&] { return dropped_loops == 2.0; }, 10.0))
       << "dropped loop closures reported: " << dropped_loops;
 
