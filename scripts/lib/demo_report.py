@@ -82,9 +82,13 @@ class Report:
             self.features_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
 
     def on_loop(self, msg):
-        # Only closures of this robot's own keyframes: one found for a teammate's scan carries
-        # that scan's stamp, and its age is the link's queue, not the pipeline's.
-        own = msg.header.stamp.to_sec() in {k["stamp"] for k in self.keyframes}
+        # Only closures found for this robot's own keyframes: one found for a teammate's scan
+        # carries that scan's stamp, and its age is the link's queue, not the pipeline's. The
+        # own keyframe found for is "to" of an own loop and "from" of an inter-robot one (teammates'
+        # scans share stamps with own keyframes, so the stamp alone does not tell).
+        query = msg.keyframe_to if msg.robot_to == msg.robot_from else msg.keyframe_from
+        own = any(k["id"] == query and k["stamp"] == msg.header.stamp.to_sec()
+                  for k in self.keyframes)
         if self.mission_time is not None and own:
             self.loop_latency_s.append((self.mission_time - msg.header.stamp).to_sec())
 
