@@ -22,7 +22,8 @@ struct BackendParams {
   /// Standard deviation of the prior that pulls each switch variable towards 1; 0: auto (a loop
   /// as likely as its covariance says stays on, see pose_graph_optimizer.h).
   double switch_prior_sigma = 0.0;
-  /// Odometry between keyframes (odom_sigma_m_per_m, odom_sigma_rad_per_m).
+  /// Odometry between keyframes (odom_sigma_m_per_m, odom_sigma_rad_per_m,
+  /// odom_sigma_rad_per_rad).
   OdometryNoise odometry;
   /// A team transform needs this many inter-robot loop closures agreeing, and this many more
   /// than any other transform.

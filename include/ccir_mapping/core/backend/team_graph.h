@@ -66,7 +66,8 @@ class TeamGraph {
   /// A teammate's keyframe, with its pose in the teammate's frame.
   bool addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose);
   /// Intra- or inter-robot; kept until both keyframes are known. False when it concerns neither
-  /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose).
+  /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose), or when
+  /// knows() it.
   bool addLoopClosure(const LoopClosureData& loop);
   /// Whether a closure between the same two keyframes (either direction) was added: both robots
   /// of a pair may find and share it, and it must count once.
