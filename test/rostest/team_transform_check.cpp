@@ -1,6 +1,8 @@
 // Two robots' keyframes and inter-robot loop closures, most of them false, into robot_a's
-// pipeline (launch/robot.launch): the Backend must put the true transform to robot_b's frame on
-// tf and announce it as a valid TeamTransform. Unusable closures among them are counted as dropped.
+// pipeline (launch/robot.launch): half found by robot_a's Matcher, half by robot_b (arriving on
+// inbox/loop_closures). The Backend must put the true transform to robot_b's frame on tf and
+// announce it as a valid TeamTransform, and pass its own inter-robot closures on to the
+// teammates. Unusable closures among them are counted as dropped.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -34,10 +36,20 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   ros::Publisher keyframes = nh.advertise<Keyframe>("keyframes", 500);
   ros::Publisher peer_keyframes = nh.advertise<Keyframe>("teammate_scans", 500);
   ros::Publisher loops = nh.advertise<LoopClosure>("loop_closures", 500);
+  ros::Publisher teammate_loops = nh.advertise<LoopClosure>("inbox/loop_closures", 500);
+  int forwarded = 0;
+  bool forwarded_only_inter_robot = true;
+  ros::Subscriber outbox_sub =
+      nh.subscribe<LoopClosure>("outbox/loop_closures", 500, [&](const LoopClosure::ConstPtr& m) {
+        ++forwarded;
+        forwarded_only_inter_robot &= m->robot_from == "robot_a" && m->robot_to == "robot_b";
+      });
   TeamTransform::ConstPtr team;
   ros::Subscriber team_sub = nh.subscribe<TeamTransform>(
       "team_transforms", 10, [&](const TeamTransform::ConstPtr& m) { team = m; });
   double dropped_loops = -1.0;
+  double dropped_teammate_loops = -1.0;
+  double ignored_teammate_loops = -1.0;
   ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& array) {
         for (const auto& status : array->status) {
@@ -45,6 +57,10 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
           for (const auto& entry : status.values) {
             if (entry.key == "dropped loop_closures messages")
               dropped_loops = std::stod(entry.value);
+            if (entry.key == "dropped inbox/loop_closures messages")
+              dropped_teammate_loops = std::stod(entry.value);
+            if (entry.key == "ignored inbox/loop_closures (not with this robot) messages")
+              ignored_teammate_loops = std::stod(entry.value);
           }
         }
       });
@@ -63,7 +79,8 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   ASSERT_TRUE(waitFor(
       [&] {
         return keyframes.getNumSubscribers() > 0 && peer_keyframes.getNumSubscribers() > 0 &&
-               loops.getNumSubscribers() > 0 && team_sub.getNumPublishers() > 0;
+               loops.getNumSubscribers() > 0 && teammate_loops.getNumSubscribers() > 0 &&
+               team_sub.getNumPublishers() > 0 && outbox_sub.getNumPublishers() > 0;
       },
       30.0))
       << "the pipeline did not come up";
@@ -109,8 +126,27 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
                                                           : s.candidates[k].measurement.inverse());
     for (int d = 0; d < 6; ++d) loop->covariance[d * 7] = s.candidates[k].covariance(d, d);
     loop->method = "fabmap";
-    loops.publish(loop);
+    if (outgoing) {
+      loop->odom_pose_from = conversions::toPoseMsg(s.poses_a[s.index_a[k]]);
+      loops.publish(loop);
+    } else {  // robot_b found it and sent it over
+      loop->odom_pose_from = conversions::toPoseMsg(s.poses_b[s.index_b[k]]);
+      teammate_loops.publish(loop);
+    }
   }
+  // A teammate's closure with a third robot is not robot_a's; one without its keyframe's pose
+  // cannot be placed.
+  auto strangers = boost::make_shared<LoopClosure>();
+  strangers->robot_from = "robot_b";
+  strangers->robot_to = "robot_c";
+  strangers->relative_pose.orientation.w = 1.0;
+  strangers->odom_pose_from.orientation.w = 1.0;
+  for (int d = 0; d < 6; ++d) strangers->covariance[d * 7] = 0.01;
+  teammate_loops.publish(strangers);
+  auto unplaced = boost::make_shared<LoopClosure>(*strangers);
+  unplaced->robot_to = "robot_a";
+  unplaced->odom_pose_from.orientation.w = 0.0;  // not a rotation
+  teammate_loops.publish(unplaced);
   // Unusable: a keyframe looped to itself, and a covariance with a NaN (which LLT lets through).
   auto self_loop = boost::make_shared<LoopClosure>();
   self_loop->robot_from = self_loop->robot_to = "robot_a";
@@ -138,6 +174,14 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_GE(distinct, 55U);
   EXPECT_TRUE(waitFor([&] { return dropped_loops == 2.0; }, 10.0))
       << "dropped loop closures reported: " << dropped_loops;
+  EXPECT_TRUE(
+      waitFor([&] { return dropped_teammate_loops == 1.0 && ignored_teammate_loops == 1.0; }, 10.0))
+      << "teammates' closures dropped " << dropped_teammate_loops << ", ignored "
+      << ignored_teammate_loops;
+  // Robot_a's 30 inter-robot closures went on to the teammates; its own loop and the closure
+  // with a NaN covariance did not, nor what came from robot_b.
+  EXPECT_TRUE(waitFor([&] { return forwarded == 30; }, 10.0)) << forwarded << " forwarded";
+  EXPECT_TRUE(forwarded_only_inter_robot);
 
   std::string why;
   ASSERT_TRUE(waitFor(
