@@ -177,9 +177,10 @@ class BackendNodelet final : public PipelineNodelet {
     const auto pose_from = conversions::toPose(msg->odom_pose_from);
     const auto loop = toLoop(*msg, "inbox/loop_closures");
     if (!loop) return;
-    if (!pose_from) {
-      NODELET_WARN_THROTTLE(5.0, "dropping %s's loop closure: odom_pose_from is not valid",
-                            msg->robot_from.c_str());
+    if (!pose_from || msg->robot_from.empty()) {
+      NODELET_WARN_THROTTLE(5.0, "dropping a teammate's loop closure from '%s': %s",
+                            msg->robot_from.c_str(),
+                            pose_from ? "it names no robot" : "odom_pose_from is not valid");
       count("dropped inbox/loop_closures");
       return;
     }

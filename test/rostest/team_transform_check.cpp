@@ -134,8 +134,8 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
       teammate_loops.publish(loop);
     }
   }
-  // A teammate's closure with a third robot is not robot_a's; one without its keyframe's pose
-  // cannot be placed.
+  // A teammate's closure with a third robot is not robot_a's; one without its keyframe's pose,
+  // or naming no robot, cannot be placed.
   auto strangers = boost::make_shared<LoopClosure>();
   strangers->robot_from = "robot_b";
   strangers->robot_to = "robot_c";
@@ -147,6 +147,10 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   unplaced->robot_to = "robot_a";
   unplaced->odom_pose_from.orientation.w = 0.0;  // not a rotation
   teammate_loops.publish(unplaced);
+  auto nameless = boost::make_shared<LoopClosure>(*strangers);
+  nameless->robot_from = "";
+  nameless->robot_to = "robot_a";
+  teammate_loops.publish(nameless);
   // Unusable: a keyframe looped to itself, and a covariance with a NaN (which LLT lets through).
   auto self_loop = boost::make_shared<LoopClosure>();
   self_loop->robot_from = self_loop->robot_to = "robot_a";
@@ -175,7 +179,7 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_TRUE(waitFor([&] { return dropped_loops == 2.0; }, 10.0))
       << "dropped loop closures reported: " << dropped_loops;
   EXPECT_TRUE(
-      waitFor([&] { return dropped_teammate_loops == 1.0 && ignored_teammate_loops == 1.0; }, 10.0))
+      waitFor([&] { return dropped_teammate_loops == 2.0 && ignored_teammate_loops == 1.0; }, 10.0))
       << "teammates' closures dropped " << dropped_teammate_loops << ", ignored "
       << ignored_teammate_loops;
   // Robot_a's 30 inter-robot closures went on to the teammates; its own loop and the closure

@@ -143,7 +143,7 @@ BackendSnapshot TeamGraph::optimize() {
     c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
     const std::size_t i = static_cast<std::size_t>(own->second);
     c.covariance_a = inBodyFrame(odom_covariances_[i], odom_poses_[i].linear());
-    c.covariance_b = inBodyFrame(peer_covariances[peer][theirs],
+    c.covariance_b = inBodyFrame(peer_covariances.at(peer).at(theirs),
                                  c.pose_b.linear() * c.measurement.linear().transpose());
     candidates[peer].push_back(c);
   }

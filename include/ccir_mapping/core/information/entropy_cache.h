@@ -10,8 +10,6 @@
 
 namespace ccir_mapping::core::information {
 
-double occupancyEntropyBits(double p);
-
 class EntropyCache {
  public:
   EntropyCache() { slots_.fill({std::numeric_limits<float>::quiet_NaN(), 0.0}); }
