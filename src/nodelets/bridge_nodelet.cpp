@@ -211,6 +211,7 @@ class BridgeNodelet final : public PipelineNodelet {
       stats->queued_bulk = static_cast<std::uint32_t>(report.queued_bulk);
       stats->queued_control_bytes = report.queued_control_bytes;
       stats->queued_bulk_bytes = report.queued_bulk_bytes;
+      stats->available_tokens_bytes = report.available_tokens_bytes;
       stats->total_budget_bytes_per_s = settings_.core.total_budget_bytes_per_s;
       for (const auto& [reason, n] : report.drops) {
         if (n == 0) continue;

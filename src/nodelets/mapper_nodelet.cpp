@@ -97,7 +97,13 @@ class MapperNodelet final : public PipelineNodelet {
     const auto scan = scanOf(*keyframe, "teammate scan");
     if (!scan) return;
     std::lock_guard lock(mutex_);
-    insert(keyframes_->addPeer(keyframe->robot, scan->first, scan->second));
+    if (keyframes_->holdsPeer(keyframe->robot, keyframe->id)) {
+      count("dropped teammate_scans (held)");
+      NODELET_WARN_THROTTLE(5.0, "ignoring %s's keyframe %lu: it is in the map already",
+                            keyframe->robot.c_str(), static_cast<unsigned long>(keyframe->id));
+      return;
+    }
+    insert(keyframes_->addPeer(keyframe->robot, keyframe->id, scan->first, scan->second));
   }
 
   void onTrajectory(const nav_msgs::Path::ConstPtr& path) {

@@ -315,8 +315,14 @@ ScanReceipt toReceiptMsg(const core::routing::Receipt& receipt) {
 }
 
 core::routing::LinkState toLinkState(const LinkStats& msg) {
-  return {msg.connected, msg.budget_bytes_per_s, msg.total_budget_bytes_per_s,
-          static_cast<std::size_t>(msg.queued_bulk_bytes)};
+  core::routing::LinkState state;
+  state.connected = msg.connected != 0;
+  state.budget_bytes_per_s = msg.budget_bytes_per_s;
+  state.total_budget_bytes_per_s = msg.total_budget_bytes_per_s;
+  state.queued_control_bytes = static_cast<std::size_t>(msg.queued_control_bytes);
+  state.queued_bulk_bytes = static_cast<std::size_t>(msg.queued_bulk_bytes);
+  state.available_tokens_bytes = msg.available_tokens_bytes;
+  return state;
 }
 
 PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerCounters& c) {

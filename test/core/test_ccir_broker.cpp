@@ -28,7 +28,16 @@ const auto kPlaceC = [] { return blocks(40, 5); };
 
 constexpr std::size_t kScanBytes = 50000;
 
-LinkState link(double budget = 150000.0) { return {true, budget, budget, 0}; }
+LinkState link(double budget = 150000.0, std::size_t queued_bulk_bytes = 0,
+               double tokens_bytes = 0.0, std::size_t queued_control_bytes = 0) {
+  LinkState state;
+  state.connected = true;
+  state.budget_bytes_per_s = state.total_budget_bytes_per_s = budget;
+  state.queued_bulk_bytes = queued_bulk_bytes;
+  state.queued_control_bytes = queued_control_bytes;
+  state.available_tokens_bytes = tokens_bytes;
+  return state;
+}
 
 BrokerParams params(double lambda = 0.5) {
   BrokerParams p;
@@ -60,12 +69,19 @@ TEST_F(Provider, OfferHoldsAtMostWhatOnePeriodCarries) {
   EXPECT_EQ(offer->scans.size(), 3u);
   EXPECT_EQ(offer->provider, "robot_a");
   EXPECT_EQ(offer->requester, "robot_b");
-  // A backlog on the link shrinks the next offer; a full queue stops offers.
-  a.setLink("robot_b", {true, 150000.0, 150000.0, 60000});
+  // A backlog on the link shrinks the next offer (control goes first, so it counts too); a
+  // full queue stops offers; a full bucket lets the burst go at once.
+  a.setLink("robot_b", link(150000.0, 60000));
   EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 1u);
-  a.setLink("robot_b", {true, 150000.0, 150000.0, 200000});
+  a.setLink("robot_b", link(150000.0, 30000, 0.0, 30000));
+  EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 1u);
+  a.setLink("robot_b", link(150000.0, 200000));
   EXPECT_FALSE(a.makeOffer("robot_b", 0.0));
-  a.setLink("robot_b", {false, 150000.0, 150000.0, 0});
+  a.setLink("robot_b", link(150000.0, 0, 100000.0));  // 250 KB: 5 scans
+  EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 5u);
+  auto down = link();
+  down.connected = false;
+  a.setLink("robot_b", down);
   EXPECT_FALSE(a.makeOffer("robot_b", 0.0)) << "link down";
 }
 
@@ -74,11 +90,16 @@ TEST(ProviderWithTwoPeers, ThePeersShareTheRadiosTotalBudget) {
   for (KeyframeId id = 0; id < 10; ++id) {
     a.addKeyframe(id, Stamp(id), Pose3::Identity(), kScanBytes, blocks(int(id) * 10, 10));
   }
-  // 150 KB/s per link, 150 KB/s in total: 75 KB a period each, one scan each.
-  a.setLink("robot_b", {true, 150000.0, 150000.0, 0});
-  a.setLink("robot_c", {true, 150000.0, 150000.0, 0});
+  // 150 KB/s per link, 150 KB/s in total: 75 KB a period each, one scan each; of a full
+  // 130 KB bucket each gets half, 140 KB a period: two scans each.
+  a.setLink("robot_b", link());
+  a.setLink("robot_c", link());
   EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 1u);
   EXPECT_EQ(a.makeOffer("robot_c", 0.0)->scans.size(), 1u);
+  a.setLink("robot_b", link(150000.0, 0, 130000.0));
+  a.setLink("robot_c", link(150000.0, 0, 130000.0));
+  EXPECT_EQ(a.makeOffer("robot_b", 0.0)->scans.size(), 2u);
+  EXPECT_EQ(a.makeOffer("robot_c", 0.0)->scans.size(), 2u);
 }
 
 TEST_F(Provider, OffersCarryOptimisedPosesAndNewKeyframesTheNewestCorrection) {

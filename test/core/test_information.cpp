@@ -389,12 +389,15 @@ TEST(KeyframeMap, FollowsOptimizedPosesAndPlacesTeammatesOnceTheirFrameIsKnown) 
   EXPECT_TRUE(all[1].map_from_sensor.isApprox(at(2, 0.5, 2)));
 
   // A teammate's scans wait for its frame, then are placed with it.
-  EXPECT_TRUE(map.addPeer("robot_b", cloud, at(1, 1)).empty());
+  EXPECT_TRUE(map.addPeer("robot_b", 7, cloud, at(1, 1)).empty());
   EXPECT_EQ(map.pendingPeerScans(), 1U);
+  EXPECT_TRUE(map.holdsPeer("robot_b", 7));
+  EXPECT_FALSE(map.holdsPeer("robot_c", 7));
   const auto placed = map.setTeamTransform("robot_b", at(10, 0, 90));
   ASSERT_EQ(placed.size(), 1U);
   EXPECT_TRUE(placed[0].map_from_sensor.isApprox(at(10, 0, 90) * at(1, 1)));
-  EXPECT_EQ(map.addPeer("robot_b", cloud, at(2, 2)).size(), 1U);
+  EXPECT_EQ(map.addPeer("robot_b", 8, cloud, at(2, 2)).size(), 1U);
+  EXPECT_TRUE(map.addPeer("robot_b", 8, cloud, at(3, 3)).empty()) << "held: not added twice";
   EXPECT_EQ(map.peerScans(), 2U);
   EXPECT_EQ(map.pendingPeerScans(), 0U);
   // The same estimate again changes nothing; a better one 1 m away makes a rebuild due.

@@ -322,6 +322,7 @@ TEST(LinkScheduler, LinksSharingATotalBudgetStayWithinItTogether) {
   std::vector<std::pair<double, std::size_t>> sent;
   std::vector<std::size_t> per_link(2, 0);
   for (auto& link : links) link.shareBucket(total);
+  EXPECT_DOUBLE_EQ(links[0].availableTokens(0.0), 131072.0) << "both buckets start full";
   // Turns of one frame per link, starting after the link that sent last, as the Bridge does.
   std::size_t turn = 0;
   for (int ms = 0; ms < 20000; ++ms) {
@@ -352,6 +353,9 @@ TEST(LinkScheduler, LinksSharingATotalBudgetStayWithinItTogether) {
   EXPECT_GT(total_bytes, 0.9 * 100000.0 * 20.0);
   EXPECT_LE(total_bytes, 131072 + 100000.0 * 20.0);
   EXPECT_GT(per_link[1], total_bytes / 4) << "one link starved the other";
+  // Saturated: what either link may send at once is what the shared bucket has left.
+  EXPECT_LT(links[0].availableTokens(20.0), 131072.0);
+  EXPECT_DOUBLE_EQ(links[0].availableTokens(20.0), total->tokens(20.0));
 }
 
 TEST(LinkScheduler, QueuePoliciesKeepLatestBoundAndExpire) {

@@ -247,12 +247,16 @@ TEST(Conversions, RoutingMessagesRoundTrip) {
   link.connected = true;
   link.budget_bytes_per_s = 150000.0;
   link.total_budget_bytes_per_s = 120000.0;
+  link.queued_control_bytes = 17;
   link.queued_bulk_bytes = 4242;
+  link.available_tokens_bytes = 65536.5;
   const auto state = toLinkState(link);
   EXPECT_TRUE(state.connected);
   EXPECT_EQ(state.budget_bytes_per_s, 150000.0);
   EXPECT_EQ(state.total_budget_bytes_per_s, 120000.0);
+  EXPECT_EQ(state.queued_control_bytes, 17U);
   EXPECT_EQ(state.queued_bulk_bytes, 4242U);
+  EXPECT_EQ(state.available_tokens_bytes, 65536.5);
 
   core::routing::PeerCounters counters;
   counters.scans_sent = 3;

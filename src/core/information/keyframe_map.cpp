@@ -23,13 +23,17 @@ PlacedScan KeyframeMap::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud,
   return {std::move(cloud), map_pose};
 }
 
-std::vector<PlacedScan> KeyframeMap::addPeer(const std::string& robot,
+std::vector<PlacedScan> KeyframeMap::addPeer(const std::string& robot, KeyframeId id,
                                              std::shared_ptr<const Cloud> cloud,
                                              const Pose3& peer_pose) {
   Teammate& t = teammates_[robot];
-  t.scans.push_back({cloud, peer_pose});
-  if (!t.known) return {};
+  if (!t.scans.emplace(id, Peer{cloud, peer_pose}).second || !t.known) return {};
   return {{std::move(cloud), t.map_from_peer * peer_pose}};
+}
+
+bool KeyframeMap::holdsPeer(const std::string& robot, KeyframeId id) const {
+  const auto t = teammates_.find(robot);
+  return t != teammates_.end() && t->second.scans.count(id) > 0;
 }
 
 std::vector<PlacedScan> KeyframeMap::setTeamTransform(const std::string& robot,
@@ -44,7 +48,7 @@ std::vector<PlacedScan> KeyframeMap::setTeamTransform(const std::string& robot,
   }
   t.inserted_transform = map_from_peer;
   std::vector<PlacedScan> placed;
-  for (const Peer& s : t.scans) placed.push_back({s.cloud, map_from_peer * s.peer_pose});
+  for (const auto& [id, s] : t.scans) placed.push_back({s.cloud, map_from_peer * s.peer_pose});
   return placed;
 }
 
@@ -67,7 +71,7 @@ std::vector<PlacedScan> KeyframeMap::placeAll() {
   for (auto& [robot, t] : teammates_) {
     if (!t.known) continue;
     t.inserted_transform = t.map_from_peer;
-    for (const Peer& s : t.scans) placed.push_back({s.cloud, t.map_from_peer * s.peer_pose});
+    for (const auto& [id, s] : t.scans) placed.push_back({s.cloud, t.map_from_peer * s.peer_pose});
   }
   rebuild_due_ = false;
   return placed;

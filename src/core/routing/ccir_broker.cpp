@@ -155,8 +155,13 @@ double CcirBroker::periodCapacity(const Peer& peer) const {
   if (!peer.link_known || !peer.link.connected) return 0.0;
   const double rate = std::min(peer.link.budget_bytes_per_s,
                                peer.link.total_budget_bytes_per_s / double(peers_.size()));
-  return rate * params_.offer_period_s - double(peer.link.queued_bulk_bytes) -
-         double(peer.unreported_bytes);
+  // What the buckets hold now (a link sharing the radio: its share of them) plus what they
+  // refill in one period, less what waits ahead (control goes first) and what was sent since
+  // the report.
+  const double tokens =
+      peer.link.available_tokens_bytes * rate / std::max(1.0, peer.link.budget_bytes_per_s);
+  return tokens + rate * params_.offer_period_s - double(peer.link.queued_control_bytes) -
+         double(peer.link.queued_bulk_bytes) - double(peer.unreported_bytes);
 }
 
 std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s) {

@@ -461,6 +461,7 @@ std::vector<LinkReport> Bridge::reports() {
     r.queued_bulk = link->session.queued(Priority::kBulk);
     r.queued_control_bytes = link->session.queuedBytes(Priority::kControl);
     r.queued_bulk_bytes = link->session.queuedBytes(Priority::kBulk);
+    r.available_tokens_bytes = link->session.availableTokens(t);
     r.silent_s = r.received.last_heard_s < 0 ? -1.0 : t - r.received.last_heard_s;
     r.at_s = t;
     r.drops = link->refused;

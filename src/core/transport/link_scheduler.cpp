@@ -133,4 +133,9 @@ std::size_t LinkScheduler::queuedBytes(Priority priority) const {
   return bytes;
 }
 
+double LinkScheduler::availableTokens(double now_s) const {
+  const double own = bucket_.tokens(now_s);
+  return total_ ? std::min(own, total_->tokens(now_s)) : own;
+}
+
 }  // namespace ccir_mapping::core::transport

@@ -33,10 +33,12 @@ class KeyframeMap {
 
   /// An own keyframe with its odometry pose: placed with the latest optimised correction.
   PlacedScan addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose);
-  /// A teammate's scan with its pose in the teammate's frame: placed now if the teammate's
-  /// frame is known (returned), else kept until it is.
-  std::vector<PlacedScan> addPeer(const std::string& robot, std::shared_ptr<const Cloud> cloud,
-                                  const Pose3& peer_pose);
+  /// A teammate's keyframe `id` with its pose in the teammate's frame: placed now if the
+  /// teammate's frame is known (returned), else kept until it is. One already held is not
+  /// added again (see holdsPeer).
+  std::vector<PlacedScan> addPeer(const std::string& robot, KeyframeId id,
+                                  std::shared_ptr<const Cloud> cloud, const Pose3& peer_pose);
+  bool holdsPeer(const std::string& robot, KeyframeId id) const;
   /// The teammate's frame in the map frame: returns its waiting scans, now placed. A known
   /// transform that moves beyond the thresholds makes a rebuild due.
   std::vector<PlacedScan> setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
@@ -64,7 +66,7 @@ class KeyframeMap {
     Pose3 peer_pose;
   };
   struct Teammate {
-    std::vector<Peer> scans;
+    std::map<KeyframeId, Peer> scans;
     bool known = false;
     Pose3 map_from_peer = Pose3::Identity();
     Pose3 inserted_transform = Pose3::Identity();

@@ -49,7 +49,10 @@ struct LinkState {
   bool connected = false;
   double budget_bytes_per_s = 0.0;
   double total_budget_bytes_per_s = 0.0;
+  std::size_t queued_control_bytes = 0;
   std::size_t queued_bulk_bytes = 0;
+  /// Bytes the link's token buckets let leave at once (at most its burst).
+  double available_tokens_bytes = 0.0;
 };
 
 /// What the broker did with one teammate since start.

@@ -30,6 +30,8 @@ struct LinkReport {
   std::size_t queued_bulk = 0;
   std::size_t queued_control_bytes = 0;
   std::size_t queued_bulk_bytes = 0;
+  /// Bytes the link's token buckets (its own and the total) would let leave now.
+  double available_tokens_bytes = 0.0;
   /// Messages dropped and streams refused, by reason.
   std::map<std::string, std::uint64_t> drops;
   /// Seconds on the bridge's clock since the peer was last heard (negative: never).

@@ -58,6 +58,8 @@ class LinkScheduler {
   std::size_t queued(Priority priority) const;
   /// Their bytes still to send (payload, without frame overhead).
   std::size_t queuedBytes(Priority priority) const;
+  /// Bytes that could leave now: the tokens in this link's bucket, and in the shared one.
+  double availableTokens(double now_s) const;
   const LinkCounters& counters() const { return counters_; }
 
  private:

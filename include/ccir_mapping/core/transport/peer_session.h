@@ -112,6 +112,7 @@ class PeerSession {
   const SessionCounters& sessionCounters() const { return counters_; }
   std::size_t queued(Priority priority) const { return scheduler_.queued(priority); }
   std::size_t queuedBytes(Priority priority) const { return scheduler_.queuedBytes(priority); }
+  double availableTokens(double now_s) const { return scheduler_.availableTokens(now_s); }
   std::uint64_t duplicatesDropped() const { return filter_.duplicates(); }
   /// Reliable messages the peer never got: given up by its outbox bound, seen as gaps here.
   std::uint64_t missing() const { return filter_.missing(); }
