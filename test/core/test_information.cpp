@@ -295,6 +295,30 @@ TEST(OccupancyMap, MutualInformationIsAboutZeroWhereMappedAndLargeWhereNew) {
             0.01 * empty.entropyReduction(empty.computeUpdate(scan, {0, 0, 0})));
 }
 
+TEST(OccupancyMap, ABeamThroughFreeSpaceVisitsTheWholeRaysCells) {
+  // A beam that never meets an obstacle runs to the insertion range; traced in segments, its
+  // cells must be those of the whole ray in one go, once each and in order.
+  OccupancyMap map(params());
+  const Eigen::Vector3d origin(0.05, 0.03, 0.4);
+  const Eigen::Vector3d direction(1.0, 0.37, -0.05);
+  const Eigen::Vector3d end = origin + direction.normalized() * map.params().max_insert_range_m;
+  octomap::KeyRay ray;
+  ASSERT_TRUE(map.tree().computeRayKeys(octomap::point3d(origin.x(), origin.y(), origin.z()),
+                                        octomap::point3d(end.x(), end.y(), end.z()), ray));
+  ScanUpdate free_ray;
+  for (const auto& key : ray) free_ray.free.push_back(key);
+  for (int i = 0; i < 12; ++i) map.insert(free_ray);  // clamped free
+  const BeamCells beam = map.beamCells(origin, direction);
+  ASSERT_EQ(beam.occupancy.size(), ray.size());
+  std::size_t i = 0;
+  for (const auto& key : ray) {
+    const octomap::point3d c = map.tree().keyToCoord(key);
+    EXPECT_NEAR(beam.range_m[i], (Eigen::Vector3d(c.x(), c.y(), c.z()) - origin).norm(), 1e-5);
+    EXPECT_LT(beam.occupancy[i], 0.05);
+    ++i;
+  }
+}
+
 TEST(OccupancyMap, BadInputIsDroppedAndCounted) {
   OccupancyMap map(params());
   auto scan = roomScan({0, 0, 0});

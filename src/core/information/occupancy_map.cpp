@@ -275,19 +275,28 @@ BeamCells OccupancyMap::beamCells(const Eigen::Vector3d& origin,
                                   const Eigen::Vector3d& direction) const {
   BeamCells beam;
   beam.max_range_m = params_.max_insert_range_m;
-  const Eigen::Vector3d end = origin + direction.normalized() * params_.max_insert_range_m;
-  octomap::KeyRay ray;
-  if (!tree_.computeRayKeys(toOctomap(origin), toOctomap(end), ray)) return beam;
-  // Later cells matter only while the beam may still be unobstructed.
+  const Eigen::Vector3d unit = direction.normalized();
+  // Later cells matter only while the beam may still be unobstructed, which most beams stop
+  // being within metres: the ray is traced in segments (computeRayKeys has no early exit). A
+  // segment holds its start's voxel and not its end's, so the segments' keys are the ray's.
   constexpr double kNegligible = 1e-4;
+  constexpr double kSegmentM = 1.0;
   double all_free = 1.0;
-  for (const auto& key : ray) {
-    const double o = occupancy(key);
-    const octomap::point3d c = tree_.keyToCoord(key);
-    beam.occupancy.push_back(o);
-    beam.range_m.push_back((Eigen::Vector3d(c.x(), c.y(), c.z()) - origin).norm());
-    all_free *= 1.0 - o;
-    if (all_free < kNegligible) break;
+  octomap::KeyRay ray;
+  for (double from = 0.0; from < beam.max_range_m; from += kSegmentM) {
+    const double to = std::min(beam.max_range_m, from + kSegmentM);
+    if (!tree_.computeRayKeys(toOctomap(origin + unit * from), toOctomap(origin + unit * to),
+                              ray)) {
+      return beam;
+    }
+    for (const auto& key : ray) {
+      const double o = occupancy(key);
+      const octomap::point3d c = tree_.keyToCoord(key);
+      beam.occupancy.push_back(o);
+      beam.range_m.push_back((Eigen::Vector3d(c.x(), c.y(), c.z()) - origin).norm());
+      all_free *= 1.0 - o;
+      if (all_free < kNegligible) return beam;
+    }
   }
   return beam;
 }
