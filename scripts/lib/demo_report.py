@@ -55,6 +55,8 @@ class Report:
         self.flows = {}
         self.levels = {}
         self.updated_at = {}
+        # Time series (mission seconds): what the comparison of routing modes scores.
+        self.series = {"links": {}, "map": [], "team_transforms": {}}
         self.subs = [
             rospy.Subscriber("keyframes", Keyframe, self.on_keyframe, queue_size=100),
             rospy.Subscriber("outbox/features", KeyframeFeatures, self.on_features, queue_size=100),
@@ -109,13 +111,22 @@ class Report:
 
     def on_map(self, msg):
         self.map = msg
+        self.series["map"].append([msg.header.stamp.to_sec(), msg.known_volume_m3,
+                                   msg.entropy_bits])
 
     def on_link(self, msg):
         if msg.peer:
             self.links[msg.peer] = msg
+            self.series["links"].setdefault(msg.peer, []).append(
+                [msg.header.stamp.to_sec(), msg.bytes_sent, msg.bytes_received])
 
     def on_team(self, msg):
         self.team[msg.peer] = msg
+        t = msg.transform
+        self.series["team_transforms"].setdefault(msg.peer, []).append(
+            [msg.header.stamp.to_sec(), bool(msg.valid), msg.inliers,
+             [t.translation.x, t.translation.y, t.translation.z],
+             [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]])
 
     def on_inbox_scan(self, msg):
         self.inbox_scans += 1
@@ -197,6 +208,10 @@ class Report:
             "nodelets": {name: {"level": self.levels[name], "flow": flow}
                          for name, flow in sorted(self.flows.items())},
             "keyframe_list": self.keyframes,
+            "trajectory": [] if self.trajectory is None else [
+                [p.header.stamp.to_sec(), p.pose.position.x, p.pose.position.y, p.pose.position.z]
+                for p in self.trajectory.poses],
+            "series": self.series,
         }
 
 

@@ -29,21 +29,84 @@ def start_pose(plan):
     return matrix([p["x"], p["y"], p["z"]], [p["qx"], p["qy"], p["qz"], p["qw"]])
 
 
-def team_frames(robot, report, plans):
-    """What a robot knows of each teammate's map frame: the Backend's last TeamTransform, and
-    for a valid one its error against the truth (metres, degrees)."""
+# A team transform this close to the truth counts as correct (the issue's target).
+CORRECT_M, CORRECT_DEG = 0.3, 2.0
+
+
+def transform_error(robot, peer, plans, translation, xyzw):
+    """(metres, degrees) between an estimate of the peer's map frame and the truth."""
+    truth = np.linalg.inv(start_pose(plans[robot])) @ start_pose(plans[peer])
+    error = np.linalg.inv(truth) @ matrix(translation, xyzw)
+    cos = max(-1.0, min(1.0, (np.trace(error[:3, :3]) - 1) / 2))
+    return float(np.linalg.norm(error[:3, 3])), math.degrees(math.acos(cos))
+
+
+def team_frames(robot, report, plans, start_s):
+    """What a robot knows of each teammate's map frame: the Backend's last TeamTransform, for a
+    valid one its error against the truth (metres, degrees), and from the time series the
+    mission seconds to the first valid transform (with its error) and to the first within
+    CORRECT_M / CORRECT_DEG."""
     known = []
+    series = report.get("series", {}).get("team_transforms", {})
     for peer, t in report.get("team_transforms", {}).items():
         entry = {"peer": peer, "valid": t["valid"], "inliers": t["inliers"],
                  "candidates": t["candidates"]}
-        if t["valid"] and peer in plans:
-            truth = np.linalg.inv(start_pose(plans[robot])) @ start_pose(plans[peer])
-            error = np.linalg.inv(truth) @ matrix(t["translation"], t["rotation_xyzw"])
-            cos = max(-1.0, min(1.0, (np.trace(error[:3, :3]) - 1) / 2))
-            entry["error_m"] = float(np.linalg.norm(error[:3, 3]))
-            entry["error_deg"] = math.degrees(math.acos(cos))
+        if peer not in plans:
+            known.append(entry)
+            continue
+        if t["valid"]:
+            entry["error_m"], entry["error_deg"] = transform_error(
+                robot, peer, plans, t["translation"], t["rotation_xyzw"])
+        for stamp, valid, _, translation, xyzw in series.get(peer, []):
+            if not valid:
+                continue
+            error_m, error_deg = transform_error(robot, peer, plans, translation, xyzw)
+            if "first_valid_s" not in entry:
+                entry["first_valid_s"] = round(stamp - start_s, 2)
+                entry["first_valid_error"] = [round(error_m, 3), round(error_deg, 2)]
+            if error_m <= CORRECT_M and error_deg <= CORRECT_DEG:
+                entry["first_correct_s"] = round(stamp - start_s, 2)
+                break
         known.append(entry)
     return known
+
+
+def truth_at(truth, stamps):
+    """Rows of the ground truth nearest to each stamp."""
+    return truth[np.clip(np.searchsorted(truth[:, 0], stamps), 0, len(truth) - 1)]
+
+
+def ate_m(out, name, report):
+    """Absolute trajectory error (RMS planar distance to the truth, m, no alignment: the map
+    frame is the odometry frame, which starts at the true start pose) of the Backend's optimised
+    keyframe poses, and of the same keyframes' odometry poses."""
+    truth = np.loadtxt("%s/mission/%s_gt.txt" % (out, name))
+    result = {}
+    for kind, rows in (("optimised", report.get("trajectory", [])),
+                       ("odometry", [[k["stamp"], k["x"], k["y"]]
+                                     for k in report.get("keyframe_list", [])])):
+        if rows:
+            rows = np.array([r[:3] for r in rows])
+            d = rows[:, 1:3] - truth_at(truth, rows[:, 0])[:, 1:3]
+            result[kind] = round(float(np.sqrt(np.mean(np.sum(d * d, axis=1)))), 3)
+    return result
+
+
+def link_series(report, start_s):
+    """Cumulative bytes sent on each link over mission time, and the peak rate between two
+    reports at least 0.9 s apart (KB/s)."""
+    result = {}
+    for peer, rows in report.get("series", {}).get("links", {}).items():
+        peak, last = 0.0, None
+        for stamp, sent, _ in rows:
+            if last is not None and stamp - last[0] >= 0.9:
+                peak = max(peak, (sent - last[1]) / 1e3 / (stamp - last[0]))
+                last = (stamp, sent)
+            elif last is None:
+                last = (stamp, sent)
+        result[peer] = {"peak_kb_per_s": round(peak, 1),
+                        "cumulative_bytes": [[round(t - start_s, 2), sent] for t, sent, _ in rows]}
+    return result
 
 
 def odometry_drift_m(out, name, keyframes):
@@ -105,7 +168,11 @@ def main():
             "inbox_scans": report.get("inbox_scans", 0),
             "inbox_features": report.get("inbox_features", 0),
             "links": report.get("links", {}),
-            "team_frames": team_frames(plan["name"], report, plans),
+            "team_frames": team_frames(plan["name"], report, plans, mission["start_time_s"]),
+            "ate_m": ate_m(args.out, plan["name"], report),
+            "link_series": link_series(report, mission["start_time_s"]),
+            "map_series": [[round(t - mission["start_time_s"], 2), volume, entropy]
+                           for t, volume, entropy in report.get("series", {}).get("map", [])],
             "odometry_drift_m": odometry_drift_m(args.out, plan["name"],
                                                  report.get("keyframe_list", [])),
             "scans_missed": flow.get("missed scans (gaps in stamps)", 0),
@@ -180,10 +247,10 @@ def main():
                              "; refused: " + refused if refused else ""))
         for t in r["team_frames"]:
             if "error_m" in t:
-                lines.append("  %-9s knows %s's map frame from %d of %d loop closures: %.2f m, "
-                             "%.1f deg from the truth (odometry drift at the end: %s)" % (
-                                 r["name"], t["peer"], t["inliers"], t["candidates"],
-                                 t["error_m"], t["error_deg"], ", ".join(
+                lines.append("  %-9s knows %s's map frame (since %s s) from %d of %d loop closures: "
+                             "%.2f m, %.1f deg from the truth (odometry drift at the end: %s)" % (
+                                 r["name"], t["peer"], t.get("first_valid_s", "?"), t["inliers"],
+                                 t["candidates"], t["error_m"], t["error_deg"], ", ".join(
                                      "%s %.2f m" % (n, drift[n]) for n in (r["name"], t["peer"])
                                      if drift.get(n) is not None)))
             else:
@@ -193,6 +260,9 @@ def main():
                                  "" if t["peer"] not in path or
                                  paths_meet(path[r["name"]], path[t["peer"]])
                                  else " (their paths never come within 3 m)"))
+    lines.append("  trajectory error (RMS in the plane against the truth), optimised / odometry: " +
+                 ", ".join("%s %s / %s m" % (r["name"], r["ate_m"].get("optimised", "-"),
+                                             r["ate_m"].get("odometry", "-")) for r in robots))
     lines.append("  CPU (nodelet manager, per mission second: the share of a core at real time; "
                  "replayed at %.1f x):" % rate)
     for r in robots:
