@@ -97,6 +97,7 @@ def link_series(report, start_s):
     reports at least 0.9 s apart (KB/s)."""
     result = {}
     for peer, rows in report.get("series", {}).get("links", {}).items():
+        rows = [r for r in rows if r[0] > 0]  # reports before mission time began
         peak, last = 0.0, None
         for stamp, sent, _ in rows:
             if last is not None and stamp - last[0] >= 0.9:
