@@ -106,27 +106,27 @@ class BrokerNodelet final : public PipelineNodelet {
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
     count("in keyframes");
     auto shared = boost::make_shared<SharedScan>();
-    const auto odom_pose = conversions::toPose(keyframe->odom_pose);
-    std::optional<std::string> error =
-        measured("codec", [&] { return conversions::toSharedScan(*keyframe, shared.get()); });
-    if (!error && !odom_pose) error = "odom_pose is not finite";
+    pcl::PointCloud<pcl::PointXYZ> points;
+    core::Pose3 odom_pose;
+    std::optional<std::string> error = conversions::toScanPoints(*keyframe, &points, &odom_pose);
+    if (!error) {
+      error = measured("codec", [&] { return conversions::toSharedScan(*keyframe, shared.get()); });
+    }
     if (error) {
       NODELET_WARN_THROTTLE(5.0, "not sharing keyframe %lu: %s",
                             static_cast<unsigned long>(keyframe->id), error->c_str());
       count("dropped keyframes");
       return;
     }
-    pcl::PointCloud<pcl::PointXYZ> points;
-    pcl::fromROSMsg(keyframe->cloud, points);
     const std::size_t bytes = ros::serialization::serializationLength(*shared);
     std::lock_guard<std::mutex> lock(mutex_);
     ++keyframes_;
     auto footprint = measured("footprint", [&] {
-      return routing::CcirBroker::footprint(*footprint_map_, points, broker_->placeOwn(*odom_pose));
+      return routing::CcirBroker::footprint(*footprint_map_, points, broker_->placeOwn(odom_pose));
     });
     for (const auto id :
-         broker_->addKeyframe(keyframe->id, conversions::toStamp(keyframe->header.stamp),
-                              *odom_pose, bytes, std::move(footprint))) {
+         broker_->addKeyframe(keyframe->id, conversions::toStamp(keyframe->header.stamp), odom_pose,
+                              bytes, std::move(footprint))) {
       kept_.erase(id);
     }
     kept_[keyframe->id] = shared;
@@ -162,12 +162,7 @@ class BrokerNodelet final : public PipelineNodelet {
   }
 
   void onTrajectory(const nav_msgs::Path::ConstPtr& path) {
-    std::vector<std::pair<core::Stamp, core::Pose3>> poses;
-    for (const auto& p : path->poses) {
-      if (const auto pose = conversions::toPose(p.pose)) {
-        poses.emplace_back(conversions::toStamp(p.header.stamp), *pose);
-      }
-    }
+    const auto poses = conversions::toStampedPoses(*path);
     std::lock_guard<std::mutex> lock(mutex_);
     broker_->setOptimizedPoses(poses);
   }

@@ -66,20 +66,16 @@ class MapperNodelet final : public PipelineNodelet {
   /// The keyframe's cloud (x y z) and odometry pose, or nullopt (warned, counted).
   std::optional<std::pair<std::shared_ptr<const info::Cloud>, core::Pose3>> scanOf(
       const Keyframe& keyframe, const char* flow) {
-    const auto pose = conversions::toPose(keyframe.odom_pose);
-    std::optional<std::string> error = conversions::checkCloud(keyframe.cloud, nullptr);
-    if (!error && !pose) error = "odom_pose is not finite";
-    if (!error && keyframe.cloud.width * keyframe.cloud.height == 0) error = "the cloud is empty";
-    if (error) {
+    auto cloud = std::make_shared<info::Cloud>();
+    core::Pose3 pose;
+    if (const auto error = conversions::toScanPoints(keyframe, cloud.get(), &pose)) {
       NODELET_WARN_THROTTLE(5.0, "dropping %s %lu of %s: %s", flow,
                             static_cast<unsigned long>(keyframe.id), keyframe.robot.c_str(),
                             error->c_str());
       count(std::string("dropped ") + flow);
       return std::nullopt;
     }
-    auto cloud = std::make_shared<info::Cloud>();
-    pcl::fromROSMsg(keyframe.cloud, *cloud);
-    return std::make_pair(std::shared_ptr<const info::Cloud>(std::move(cloud)), *pose);
+    return std::make_pair(std::shared_ptr<const info::Cloud>(std::move(cloud)), pose);
   }
 
   void onKeyframe(const Keyframe::ConstPtr& keyframe) {
@@ -107,14 +103,9 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onTrajectory(const nav_msgs::Path::ConstPtr& path) {
-    std::vector<std::pair<core::Stamp, core::Pose3>> poses;
-    for (const auto& p : path->poses) {
-      if (const auto pose = conversions::toPose(p.pose)) {
-        poses.emplace_back(conversions::toStamp(p.header.stamp), *pose);
-      } else {
-        NODELET_WARN_THROTTLE(5.0, "ignoring a non-finite pose in the trajectory");
-      }
-    }
+    int skipped = 0;
+    const auto poses = conversions::toStampedPoses(*path, &skipped);
+    if (skipped > 0) NODELET_WARN_THROTTLE(5.0, "ignoring non-finite poses in the trajectory");
     std::lock_guard lock(mutex_);
     keyframes_->setOptimizedPoses(poses);
   }

@@ -89,21 +89,9 @@ class MatcherNodelet final : public PipelineNodelet {
     const pr::MatchCandidate* best = pr::bestAccepted(candidates);
     if (!best) return;
     const std::string& self = settings_.frames.robot_name;
-    const bool own_query = query_robot == self;
-    // "from" is this robot's keyframe; for own loops the older one, the place.
-    auto loop = boost::make_shared<LoopClosure>();
+    auto loop = boost::make_shared<LoopClosure>(
+        conversions::toLoopClosureMsg(matcher_->loopClosure(self, *best, query_robot, query)));
     loop->header.stamp = stamp;
-    loop->robot_from = self;
-    loop->keyframe_from = own_query && !best->robot.empty() ? query : best->keyframe;
-    loop->robot_to = best->robot.empty() ? query_robot : best->robot;
-    loop->keyframe_to = own_query && !best->robot.empty() ? best->keyframe : query;
-    loop->relative_pose = conversions::toPoseMsg(best->verification.relative);
-    if (const auto from = matcher_->placeOdomPose(loop->keyframe_from)) {
-      loop->odom_pose_from = conversions::toPoseMsg(*from);
-    }
-    for (int r = 0; r < 6; ++r) {
-      for (int c = 0; c < 6; ++c) loop->covariance[r * 6 + c] = best->verification.covariance(r, c);
-    }
     loop->match_score = best->score;
     loop->fitness_m2 = best->verification.fitness_m2;
     loop->inliers = static_cast<std::uint32_t>(best->verification.inliers);

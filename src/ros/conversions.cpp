@@ -1,5 +1,6 @@
 #include "ccir_mapping/ros/conversions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -63,6 +64,129 @@ geometry_msgs::Pose toPoseMsg(const core::Pose3& pose) { return tf2::toMsg(pose)
 
 geometry_msgs::Transform toTransformMsg(const core::Pose3& pose) {
   return tf2::eigenToTransform(pose).transform;
+}
+
+geometry_msgs::TransformStamped toTransformStampedMsg(const ros::Time& stamp,
+                                                      const std::string& parent,
+                                                      const std::string& child,
+                                                      const core::Pose3& pose) {
+  geometry_msgs::TransformStamped msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = parent;
+  msg.child_frame_id = child;
+  msg.transform = toTransformMsg(pose);
+  return msg;
+}
+
+core::Matrix6 toMatrix6(const boost::array<double, 36>& covariance) {
+  return Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(covariance.data());
+}
+
+boost::array<double, 36> toCovarianceMsg(const core::Matrix6& covariance) {
+  boost::array<double, 36> out;
+  Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(out.data()) = covariance;
+  return out;
+}
+
+std::vector<std::pair<core::Stamp, core::Pose3>> toStampedPoses(const nav_msgs::Path& path,
+                                                                int* skipped) {
+  std::vector<std::pair<core::Stamp, core::Pose3>> poses;
+  for (const auto& p : path.poses) {
+    if (const auto pose = toPose(p.pose)) {
+      poses.emplace_back(toStamp(p.header.stamp), *pose);
+    } else if (skipped) {
+      ++*skipped;
+    }
+  }
+  return poses;
+}
+
+nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
+                         const std::vector<core::Pose3>& poses, const std::string& frame) {
+  nav_msgs::Path path;
+  path.header.frame_id = frame;
+  if (!stamps.empty()) path.header.stamp = toRosTime(stamps.back());
+  for (std::size_t i = 0; i < std::min(stamps.size(), poses.size()); ++i) {
+    geometry_msgs::PoseStamped pose;
+    pose.header.frame_id = frame;
+    pose.header.stamp = toRosTime(stamps[i]);
+    pose.pose = toPoseMsg(poses[i]);
+    path.poses.push_back(pose);
+  }
+  return path;
+}
+
+bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out) {
+  const auto relative = toPose(msg.relative_pose);
+  if (!relative) return false;
+  out->robot_from = msg.robot_from;
+  out->keyframe_from = msg.keyframe_from;
+  out->robot_to = msg.robot_to;
+  out->keyframe_to = msg.keyframe_to;
+  out->relative = *relative;
+  out->covariance = toMatrix6(msg.covariance);
+  out->odom_pose_from = toPose(msg.odom_pose_from);
+  return true;
+}
+
+LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop) {
+  LoopClosure msg;
+  msg.robot_from = loop.robot_from;
+  msg.keyframe_from = loop.keyframe_from;
+  msg.robot_to = loop.robot_to;
+  msg.keyframe_to = loop.keyframe_to;
+  msg.relative_pose = toPoseMsg(loop.relative);
+  msg.covariance = toCovarianceMsg(loop.covariance);
+  if (loop.odom_pose_from) msg.odom_pose_from = toPoseMsg(*loop.odom_pose_from);
+  return msg;
+}
+
+visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::LoopLine>& lines,
+                                                 const std::string& map_frame,
+                                                 const ros::Time& stamp) {
+  visualization_msgs::MarkerArray markers;
+  const char* names[] = {"loops kept", "loops rejected", "inter-robot loops"};
+  const float colours[][3] = {{0.1F, 0.8F, 0.1F}, {0.9F, 0.1F, 0.1F}, {0.2F, 0.4F, 1.0F}};
+  for (int kind = 0; kind < 3; ++kind) {
+    visualization_msgs::Marker m;
+    m.header.frame_id = map_frame;
+    m.header.stamp = stamp;
+    m.ns = names[kind];
+    m.type = visualization_msgs::Marker::LINE_LIST;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = 0.1;
+    m.color.r = colours[kind][0];
+    m.color.g = colours[kind][1];
+    m.color.b = colours[kind][2];
+    m.color.a = 1.0F;
+    for (const auto& line : lines) {
+      if ((line.inter_robot ? 2 : (line.accepted ? 0 : 1)) != kind) continue;
+      m.points.push_back(tf2::toMsg(line.from));
+      m.points.push_back(tf2::toMsg(line.to));
+    }
+    m.action =
+        m.points.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+    markers.markers.push_back(m);
+  }
+  return markers;
+}
+
+TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
+                                 const std::string& map_frame, const ros::Time& stamp) {
+  const auto& a = estimate.alignment;
+  TeamTransform msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = map_frame;
+  msg.peer = estimate.peer;
+  msg.child_frame_id = estimate.peer + "/map";
+  msg.valid = a.found;
+  msg.transform = toTransformMsg(a.transform);
+  msg.covariance = toCovarianceMsg(a.covariance);
+  msg.inliers = static_cast<std::uint32_t>(a.inlier_count);
+  msg.candidates = static_cast<std::uint32_t>(estimate.candidates);
+  msg.margin = a.runner_up_inliers > 0 ? double(a.inlier_count) / a.runner_up_inliers
+                                       : double(a.inlier_count);
+  return msg;
 }
 
 void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
@@ -191,6 +315,17 @@ std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud
     }
   }
   pcl::fromROSMsg(cloud, *out);  // fields and buffer size checked above
+  return std::nullopt;
+}
+
+std::optional<std::string> toScanPoints(const Keyframe& keyframe,
+                                        pcl::PointCloud<pcl::PointXYZ>* points,
+                                        core::Pose3* odom_pose) {
+  if (auto error = checkCloud(keyframe.cloud, nullptr)) return error;
+  const auto pose = toPose(keyframe.odom_pose);
+  if (!pose) return "odom_pose is not finite";
+  pcl::fromROSMsg(keyframe.cloud, *points);
+  *odom_pose = *pose;
   return std::nullopt;
 }
 

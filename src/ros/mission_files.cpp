@@ -39,16 +39,6 @@ boost::shared_ptr<ros::M_string> latchedConnection() {
   return header;
 }
 
-geometry_msgs::TransformStamped transformMsg(const ros::Time& stamp, const std::string& parent,
-                                             const std::string& child, const Pose3& pose) {
-  geometry_msgs::TransformStamped msg;
-  msg.header.stamp = stamp;
-  msg.header.frame_id = parent;
-  msg.child_frame_id = child;
-  msg.transform = conversions::toTransformMsg(pose);
-  return msg;
-}
-
 class BagSink : public core::simulation::RecordingSink {
  public:
   BagSink(const std::string& robot, bool planar, const std::string& prefix, rosbag::Bag* bag,
@@ -84,7 +74,8 @@ class BagSink : public core::simulation::RecordingSink {
     bag_->write(odom_topic_, stamp, odom);
 
     tf2_msgs::TFMessage tf;
-    tf.transforms.push_back(transformMsg(stamp, odom_frame_, base_frame_, sample.odometry));
+    tf.transforms.push_back(
+        conversions::toTransformStampedMsg(stamp, odom_frame_, base_frame_, sample.odometry));
     bag_->write("/tf", stamp, tf);
 
     nav_msgs::Odometry truth;
@@ -194,8 +185,8 @@ RobotRecording writeRobotRecording(const Mission& mission, int index, const std:
   const std::string prefix = options.namespace_topics ? "/" + robot.name + "/" : "/";
 
   tf2_msgs::TFMessage mount;
-  mount.transforms.push_back(transformMsg(begin, robot.name + "/base_link",
-                                          robot.name + "/velodyne", mission.sensorMount()));
+  mount.transforms.push_back(conversions::toTransformStampedMsg(
+      begin, robot.name + "/base_link", robot.name + "/velodyne", mission.sensorMount()));
   bag.write("/tf_static", begin, mount, latchedConnection<tf2_msgs::TFMessage>());
   bag.write(prefix + BagTopics::kWorld, begin,
             worldMarkers(mission.world(), robot.name + "/odom", robot.world_from_odom.inverse()),

@@ -139,12 +139,13 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("max_candidates", p.max_candidates);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);
-  reader.read("min_inliers", p.min_inliers);
-  reader.read("max_fitness_m2", p.max_fitness_m2);
-  reader.read("min_overlap", p.min_overlap);
-  reader.read("overlap_distance_m", p.overlap_distance_m);
-  reader.read("max_free_space_violation", p.max_free_space_violation);
-  reader.read("free_space_margin_m", p.free_space_margin_m);
+  auto& v = p.verification;
+  reader.read("min_inliers", v.min_inliers);
+  reader.read("max_fitness_m2", v.max_fitness_m2);
+  reader.read("min_overlap", v.min_overlap);
+  reader.read("overlap_distance_m", v.overlap_distance_m);
+  reader.read("max_free_space_violation", v.max_free_space_violation);
+  reader.read("free_space_margin_m", v.free_space_margin_m);
   reader.addErrors(p.validate());
 }
 

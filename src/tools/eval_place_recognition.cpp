@@ -30,7 +30,7 @@ struct Keyframe {
   Eigen::Vector3d world_position;
   core::Pose3 odom_pose;
   /// Marginal covariance of odom_pose, [x y z, rotation vector], as a random walk along the path.
-  core::alignment::Matrix6 odom_covariance;
+  core::Matrix6 odom_covariance;
   pr::DescribedKeyframe described;
 };
 
@@ -186,19 +186,24 @@ int main(int argc, char** argv) {
       "min-correspondences",
       po::value<int>(&params.min_correspondences)->default_value(params.min_correspondences),
       "c_k,min: shared words (FAB-MAP) or votes (histogram) a candidate needs")(
-      "min-inliers", po::value<int>(&params.min_inliers)->default_value(params.min_inliers),
+      "min-inliers",
+      po::value<int>(&params.verification.min_inliers)
+          ->default_value(params.verification.min_inliers),
       "verification: keypoints agreeing on the transform")(
-      "min-overlap", po::value<double>(&params.min_overlap)->default_value(params.min_overlap),
-      "verification: wall overlap")(
-      "overlap-distance-m",
-      po::value<double>(&params.overlap_distance_m)->default_value(params.overlap_distance_m),
-      "verification: wall points closer than this overlap [m]")(
+      "min-overlap",
+      po::value<double>(&params.verification.min_overlap)
+          ->default_value(params.verification.min_overlap),
+      "verification: wall overlap")("overlap-distance-m",
+                                    po::value<double>(&params.verification.overlap_distance_m)
+                                        ->default_value(params.verification.overlap_distance_m),
+                                    "verification: wall points closer than this overlap [m]")(
       "max-free-space-violation",
-      po::value<double>(&params.max_free_space_violation)
-          ->default_value(params.max_free_space_violation),
+      po::value<double>(&params.verification.max_free_space_violation)
+          ->default_value(params.verification.max_free_space_violation),
       "verification: share of wall points where the other scan saw free space")(
       "free-space-margin-m",
-      po::value<double>(&params.free_space_margin_m)->default_value(params.free_space_margin_m),
+      po::value<double>(&params.verification.free_space_margin_m)
+          ->default_value(params.verification.free_space_margin_m),
       "verification: ... beyond this margin [m]")(
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),

@@ -17,6 +17,7 @@
 
 #include "ccir_mapping/core/backend/dcs_loss.h"
 #include "ccir_mapping/core/backend/g2o_io.h"
+#include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/backend/odometry_uncertainty.h"
 #include "ccir_mapping/core/backend/outlier_injector.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
@@ -77,6 +78,61 @@ Synthetic laps(int dimension, int laps, int side, double noise, unsigned seed) {
     if (!e.loop) s.graph.poses.push_back(s.graph.poses.back() * e.measurement);
   }
   return s;
+}
+
+LoopClosureData closure(const std::string& from, const std::string& to) {
+  LoopClosureData loop;
+  loop.robot_from = from;
+  loop.robot_to = to;
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  return loop;
+}
+
+TEST(LoopClosure, ProblemsAreNamedAndAGoodOneHasNone) {
+  EXPECT_FALSE(loopClosureProblem(closure("robot_a", "robot_b")));
+  EXPECT_EQ(loopClosureProblem(closure("", "robot_b")), "it names no robot");
+  EXPECT_EQ(loopClosureProblem(closure("robot_a", "")), "it names no robot");
+  auto bad = closure("robot_a", "robot_b");
+  bad.relative.translation().x() = std::nan("");
+  EXPECT_EQ(loopClosureProblem(bad), "relative pose not finite");
+  bad = closure("robot_a", "robot_b");
+  bad.relative.linear() *= 2.0;  // not a rotation
+  EXPECT_EQ(loopClosureProblem(bad), "relative pose not finite");
+  const std::string covariance = "covariance not finite and positive definite";
+  bad = closure("robot_a", "robot_b");
+  bad.covariance(3, 3) = -1e-4;
+  EXPECT_EQ(loopClosureProblem(bad), covariance);
+  bad = closure("robot_a", "robot_b");
+  bad.covariance(0, 1) = std::nan("");  // LLT alone would not notice
+  EXPECT_EQ(loopClosureProblem(bad), covariance);
+  bad = closure("robot_a", "robot_b");
+  bad.covariance.setZero();
+  EXPECT_EQ(loopClosureProblem(bad), covariance);
+  bad = closure("robot_a", "robot_b");
+  bad.odom_pose_from = Pose3::Identity();
+  EXPECT_FALSE(loopClosureProblem(bad));
+  bad.odom_pose_from->translation().y() = INFINITY;
+  EXPECT_EQ(loopClosureProblem(bad), "odom_pose_from not finite");
+}
+
+TEST(LoopClosure, EachRobotUsesWhatInvolvesItAndForwardsOnlyItsOwnInterRobotClosures) {
+  // Found by robot_a's Matcher: its own loop stays, one with a teammate also goes out.
+  EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_a", "robot_a")), LoopRoute::kUse);
+  EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_a", "robot_b")), LoopRoute::kUseAndForward);
+  EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_b", "robot_a")), LoopRoute::kUseAndForward);
+  EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_b", "robot_c")), LoopRoute::kDrop);
+  // Sent by a teammate: only b -> a with b's keyframe pose is a's; a closure between b and c,
+  // or a's own one coming back, is not a's business; without the pose it cannot be used.
+  auto from_b = closure("robot_b", "robot_a");
+  EXPECT_EQ(routeTeammateLoop("robot_a", from_b), LoopRoute::kDrop);
+  from_b.odom_pose_from = Pose3::Identity();
+  EXPECT_EQ(routeTeammateLoop("robot_a", from_b), LoopRoute::kUse);
+  auto between_others = closure("robot_b", "robot_c");
+  between_others.odom_pose_from = Pose3::Identity();
+  EXPECT_EQ(routeTeammateLoop("robot_a", between_others), LoopRoute::kIgnore);
+  auto echo = closure("robot_a", "robot_b");
+  echo.odom_pose_from = Pose3::Identity();
+  EXPECT_EQ(routeTeammateLoop("robot_a", echo), LoopRoute::kIgnore);
 }
 
 TEST(PoseGraph, ResidualsAreZeroAtTheTruth) {

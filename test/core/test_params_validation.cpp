@@ -53,7 +53,9 @@ TEST(ParamsValidation, PreprocessorRangesMustBeOrdered) {
 TEST(ParamsValidation, Matcher) {
   place_recognition::MatcherParams p;
   p.min_correspondences = -1;
+  p.verification.min_inliers = 2;  // nested: one struct, one default, checked once
   EXPECT_TRUE(mentions(p.validate(), "min_correspondences = -1"));
+  EXPECT_TRUE(mentions(p.validate(), "min_inliers = 2"));
   EXPECT_EQ(place_recognition::parseMatchMethod("histogram"),
             place_recognition::MatchMethod::kHistogram);
   EXPECT_FALSE(place_recognition::parseMatchMethod("FABMAP").has_value());

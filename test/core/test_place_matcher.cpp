@@ -121,6 +121,15 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
     if (c.keyframe == 1) EXPECT_FALSE(c.verification.accepted);
   }
   EXPECT_EQ(matcher.places(), 4U);
+  // As a loop closure: from the older keyframe (the place) to the new one.
+  const auto loop = matcher.loopClosure("robot_a", *best, "robot_a", 3);
+  EXPECT_EQ(loop.robot_from, "robot_a");
+  EXPECT_EQ(loop.keyframe_from, best->keyframe);
+  EXPECT_EQ(loop.robot_to, "robot_a");
+  EXPECT_EQ(loop.keyframe_to, 3U);
+  EXPECT_TRUE(loop.relative.isApprox(best->verification.relative));
+  EXPECT_EQ(loop.covariance, best->verification.covariance);
+  EXPECT_FALSE(loop.odom_pose_from) << "described without odometry";
 }
 
 TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
@@ -137,6 +146,12 @@ TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
     ASSERT_NE(best, nullptr);
     EXPECT_EQ(best->keyframe, 1U);
     EXPECT_EQ(matcher.places(), 2U);
+    // From the own place to the teammate's keyframe.
+    const auto loop = matcher.loopClosure("robot_a", *best, "robot_b", 7);
+    EXPECT_EQ(loop.robot_from, "robot_a");
+    EXPECT_EQ(loop.keyframe_from, 1U);
+    EXPECT_EQ(loop.robot_to, "robot_b");
+    EXPECT_EQ(loop.keyframe_to, 7U);
     EXPECT_TRUE(bestAccepted(matcher.matchTeammate(keyframe(matcher, 8, 1.0, 2))) == nullptr);
   }
 }
@@ -157,6 +172,18 @@ TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
   EXPECT_EQ(best->robot, "robot_b");
   EXPECT_EQ(best->keyframe, 42U);
   EXPECT_LT(best->verification.relative.translation().norm(), 0.05);
+  // From the own query to the teammate's kept scan; with its odometry pose once it is a place.
+  auto loop = matcher.loopClosure("robot_a", *best, "robot_a", 1);
+  EXPECT_EQ(loop.robot_from, "robot_a");
+  EXPECT_EQ(loop.keyframe_from, 1U);
+  EXPECT_EQ(loop.robot_to, "robot_b");
+  EXPECT_EQ(loop.keyframe_to, 42U);
+  auto placed = keyframe(matcher, 1, 2.0, 1);
+  placed.odom_pose = Pose3(Eigen::Translation3d(4.0, 0.0, 0.0));
+  matcher.addOwn(placed);
+  loop = matcher.loopClosure("robot_a", *best, "robot_a", 1);
+  ASSERT_TRUE(loop.odom_pose_from);
+  EXPECT_DOUBLE_EQ(loop.odom_pose_from->translation().x(), 4.0);
   // Own places carry no robot name, and a kept scan never answers for an own loop.
   for (const auto& c : matcher.addOwn(keyframe(matcher, 2, 100.0, 0))) {
     EXPECT_TRUE(c.robot.empty());

@@ -199,6 +199,37 @@ TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
   EXPECT_TRUE(toSharedScan(velodyne, &shared));
 }
 
+TEST(Conversions, ScanPointsOfAKeyframeOrWhyNot) {
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  for (int i = 0; i < 10; ++i) {
+    pcl::PointXYZINormal p;
+    p.x = 0.5F * i;
+    p.y = -1.0F;
+    p.z = 0.25F;
+    cloud.push_back(p);
+  }
+  Keyframe keyframe;
+  keyframe.odom_pose = toPoseMsg(core::Pose3(Eigen::Translation3d(1, 2, 3)));
+  pcl::toROSMsg(cloud, keyframe.cloud);
+  pcl::PointCloud<pcl::PointXYZ> points;
+  core::Pose3 pose;
+  ASSERT_FALSE(toScanPoints(keyframe, &points, &pose));
+  ASSERT_EQ(points.size(), 10U);
+  EXPECT_FLOAT_EQ(points[3].x, 1.5F);
+  EXPECT_FLOAT_EQ(points[3].y, -1.0F);
+  EXPECT_DOUBLE_EQ(pose.translation().z(), 3.0);
+
+  Keyframe unplaced = keyframe;
+  unplaced.odom_pose.orientation.w = 0.0;  // zero quaternion
+  EXPECT_EQ(toScanPoints(unplaced, &points, &pose), "odom_pose is not finite");
+  Keyframe empty = keyframe;
+  pcl::toROSMsg(pcl::PointCloud<pcl::PointXYZINormal>(), empty.cloud);
+  EXPECT_EQ(toScanPoints(empty, &points, &pose), "the cloud is empty");
+  Keyframe truncated = keyframe;
+  truncated.cloud.data.resize(truncated.cloud.data.size() / 2);
+  EXPECT_TRUE(toScanPoints(truncated, &points, &pose));
+}
+
 TEST(Conversions, RoutingMessagesRoundTrip) {
   core::routing::Offer offer;
   offer.provider = "robot_a";
@@ -267,6 +298,135 @@ TEST(Conversions, RoutingMessagesRoundTrip) {
   ASSERT_EQ(routing.refused_reasons.size(), 1U);
   EXPECT_EQ(routing.refused_reasons[0], "evicted");
   EXPECT_EQ(routing.refused_counts[0], 2U);
+}
+
+core::Pose3 somePose(double x, double angle) {
+  core::Pose3 pose = core::Pose3::Identity();
+  pose.translation() << x, -1.5, 0.25;
+  pose.linear() =
+      Eigen::AngleAxisd(angle, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  return pose;
+}
+
+core::Matrix6 someCovariance() {
+  core::Matrix6 covariance;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) covariance(r, c) = 10 * r + c;  // not symmetric: order shows
+  }
+  return covariance;
+}
+
+TEST(Conversions, TransformStampedNamesBothFrames) {
+  const auto msg =
+      toTransformStampedMsg(ros::Time(7), "robot_a/map", "robot_a/odom", somePose(3.0, 0.2));
+  EXPECT_EQ(msg.header.stamp, ros::Time(7));
+  EXPECT_EQ(msg.header.frame_id, "robot_a/map");
+  EXPECT_EQ(msg.child_frame_id, "robot_a/odom");
+  const auto pose = toPose(msg.transform);
+  ASSERT_TRUE(pose);
+  EXPECT_TRUE(pose->isApprox(somePose(3.0, 0.2), 1e-12));
+}
+
+TEST(Conversions, CovariancesAreRowMajor) {
+  const auto msg = toCovarianceMsg(someCovariance());
+  EXPECT_EQ(msg[1], 1.0);
+  EXPECT_EQ(msg[6], 10.0);
+  EXPECT_EQ(msg[35], 55.0);
+  EXPECT_EQ(toMatrix6(msg), someCovariance());
+}
+
+TEST(Conversions, LoopClosureRoundTrip) {
+  core::backend::LoopClosureData loop;
+  loop.robot_from = "robot_a";
+  loop.keyframe_from = 12;
+  loop.robot_to = "robot_b";
+  loop.keyframe_to = 345;
+  loop.relative = somePose(2.0, 0.3);
+  loop.covariance = someCovariance();
+  loop.odom_pose_from = somePose(-4.0, 1.1);
+  core::backend::LoopClosureData back;
+  ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
+  EXPECT_EQ(back.robot_from, "robot_a");
+  EXPECT_EQ(back.keyframe_from, 12U);
+  EXPECT_EQ(back.robot_to, "robot_b");
+  EXPECT_EQ(back.keyframe_to, 345U);
+  EXPECT_TRUE(back.relative.isApprox(loop.relative, 1e-12));
+  EXPECT_EQ(back.covariance, loop.covariance);
+  ASSERT_TRUE(back.odom_pose_from);
+  EXPECT_TRUE(back.odom_pose_from->isApprox(*loop.odom_pose_from, 1e-12));
+  // Without odom_pose_from the message's pose stays unset (a zero quaternion): none comes back.
+  loop.odom_pose_from.reset();
+  ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
+  EXPECT_FALSE(back.odom_pose_from);
+  // A relative pose that is not finite is refused.
+  LoopClosure broken = toLoopClosureMsg(loop);
+  broken.relative_pose.position.z = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(toLoopClosure(broken, &back));
+}
+
+TEST(Conversions, TeamTransformCarriesTheEstimate) {
+  core::team::TeamEstimate estimate;
+  estimate.peer = "robot_c";
+  estimate.candidates = 14;
+  estimate.alignment.found = true;
+  estimate.alignment.transform = somePose(7.0, -0.4);
+  estimate.alignment.covariance = someCovariance();
+  estimate.alignment.inlier_count = 12;
+  estimate.alignment.runner_up_inliers = 3;
+  const TeamTransform msg = toTeamTransformMsg(estimate, "robot_a/map", ros::Time(105, 5));
+  EXPECT_EQ(msg.header.frame_id, "robot_a/map");
+  EXPECT_EQ(msg.header.stamp, ros::Time(105, 5));
+  EXPECT_EQ(msg.peer, "robot_c");
+  EXPECT_EQ(msg.child_frame_id, "robot_c/map");
+  EXPECT_TRUE(msg.valid);
+  const auto transform = toPose(msg.transform);
+  ASSERT_TRUE(transform);
+  EXPECT_TRUE(transform->isApprox(estimate.alignment.transform, 1e-12));
+  EXPECT_EQ(toMatrix6(msg.covariance), someCovariance());
+  EXPECT_EQ(msg.inliers, 12U);
+  EXPECT_EQ(msg.candidates, 14U);
+  EXPECT_DOUBLE_EQ(msg.margin, 4.0);
+  estimate.alignment.runner_up_inliers = 0;
+  EXPECT_DOUBLE_EQ(toTeamTransformMsg(estimate, "robot_a/map", ros::Time(1)).margin, 12.0);
+}
+
+TEST(Conversions, PathRoundTripsAndSkipsBrokenPoses) {
+  const std::vector<core::Stamp> stamps = {100000000000LL, 101000000001LL};
+  const std::vector<core::Pose3> poses = {somePose(1.0, 0.1), somePose(2.0, 0.2)};
+  nav_msgs::Path path = toPathMsg(stamps, poses, "robot_a/map");
+  EXPECT_EQ(path.header.frame_id, "robot_a/map");
+  EXPECT_EQ(toStamp(path.header.stamp), stamps.back());
+  int skipped = 0;
+  auto back = toStampedPoses(path, &skipped);
+  ASSERT_EQ(back.size(), 2U);
+  EXPECT_EQ(skipped, 0);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back[i].first, stamps[i]);
+    EXPECT_TRUE(back[i].second.isApprox(poses[i], 1e-12));
+    EXPECT_EQ(path.poses[i].header.frame_id, "robot_a/map");
+  }
+  path.poses[0].pose.orientation.w = std::numeric_limits<double>::infinity();
+  back = toStampedPoses(path, &skipped);
+  ASSERT_EQ(back.size(), 1U);
+  EXPECT_EQ(back[0].first, stamps[1]);
+  EXPECT_EQ(skipped, 1);
+}
+
+TEST(Conversions, LoopMarkersDrawEachKindAndDeleteEmptyOnes) {
+  core::team::LoopLine kept;
+  kept.accepted = true;
+  kept.to = Eigen::Vector3d(1, 2, 3);
+  core::team::LoopLine inter;
+  inter.inter_robot = true;
+  const auto markers = toLoopMarkersMsg({kept, inter, kept}, "robot_a/map", ros::Time(3));
+  ASSERT_EQ(markers.markers.size(), 3U);
+  EXPECT_EQ(markers.markers[0].ns, "loops kept");
+  EXPECT_EQ(markers.markers[0].points.size(), 4U);
+  EXPECT_EQ(markers.markers[0].points[1].z, 3.0);
+  EXPECT_EQ(markers.markers[0].action, visualization_msgs::Marker::ADD);
+  EXPECT_EQ(markers.markers[1].action, visualization_msgs::Marker::DELETE) << "none rejected";
+  EXPECT_EQ(markers.markers[2].points.size(), 2U);
+  for (const auto& m : markers.markers) EXPECT_EQ(m.header.frame_id, "robot_a/map");
 }
 
 }  // namespace

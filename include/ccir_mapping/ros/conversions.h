@@ -6,21 +6,28 @@
 
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Path.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <visualization_msgs/MarkerArray.h>
+#include <boost/array.hpp>
 
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/LinkStats.h"
+#include "ccir_mapping/LoopClosure.h"
 #include "ccir_mapping/PeerRouting.h"
 #include "ccir_mapping/ScanOffer.h"
 #include "ccir_mapping/ScanReceipt.h"
 #include "ccir_mapping/ScanRequest.h"
 #include "ccir_mapping/SharedScan.h"
+#include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
+#include "ccir_mapping/core/team/team_graph.h"
 
 namespace ccir_mapping::conversions {
 
@@ -32,6 +39,38 @@ std::optional<core::Pose3> toPose(const geometry_msgs::Pose& pose);
 std::optional<core::Pose3> toPose(const geometry_msgs::Transform& transform);
 geometry_msgs::Pose toPoseMsg(const core::Pose3& pose);
 geometry_msgs::Transform toTransformMsg(const core::Pose3& pose);
+/// `child`'s pose in `parent` at `stamp`, for tf.
+geometry_msgs::TransformStamped toTransformStampedMsg(const ros::Time& stamp,
+                                                      const std::string& parent,
+                                                      const std::string& child,
+                                                      const core::Pose3& pose);
+/// Row-major 6 x 6 covariances of the messages.
+core::Matrix6 toMatrix6(const boost::array<double, 36>& covariance);
+boost::array<double, 36> toCovarianceMsg(const core::Matrix6& covariance);
+
+/// The poses of a Path by stamp; non-finite ones are left out and counted in `skipped`.
+std::vector<std::pair<core::Stamp, core::Pose3>> toStampedPoses(const nav_msgs::Path& path,
+                                                                int* skipped = nullptr);
+/// A Path of poses with their stamps, in `frame`, stamped with the last one.
+nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
+                         const std::vector<core::Pose3>& poses, const std::string& frame);
+
+/// A loop closure's keyframes, relative pose, covariance and (when it is a valid pose: an unset
+/// one has a zero quaternion) odom_pose_from; false when the relative pose is not finite
+/// (core::backend::loopClosureProblem checks the rest).
+bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out);
+/// The same fields of a LoopClosure message (its header and the match's figures are the
+/// finder's to set).
+LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop);
+/// A team transform estimate of `estimate.peer`'s map frame in `map_frame`.
+TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
+                                 const std::string& map_frame, const ros::Time& stamp);
+/// Loop closures as lines between their keyframes, one LINE_LIST each: kept intra-robot ones
+/// green ("loops kept"), rejected red ("loops rejected"), inter-robot blue ("inter-robot
+/// loops"); an empty list is a DELETE (rviz would keep drawing the last lines).
+visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::LoopLine>& lines,
+                                                 const std::string& map_frame,
+                                                 const ros::Time& stamp);
 
 /// The Velodyne ROS driver's layout: x y z intensity (FLOAT32), ring (UINT16), time (FLOAT32,
 /// seconds after the stamp), packed in 22 bytes per point.
@@ -59,6 +98,12 @@ void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI
 /// normal_z, FLOAT32). Returns an error naming what is wrong, leaving `out` empty.
 std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud,
                                            pcl::PointCloud<pcl::PointXYZINormal>* out);
+
+/// A keyframe's points (x y z, sensor frame) and odometry pose, what the map needs. Returns an
+/// error when its cloud is malformed or empty or its pose not finite.
+std::optional<std::string> toScanPoints(const Keyframe& keyframe,
+                                        pcl::PointCloud<pcl::PointXYZ>* points,
+                                        core::Pose3* odom_pose);
 
 /// A keyframe in its wire form (SharedScan.msg, core/transport/scan_codec.h). Returns an error
 /// naming what is wrong (the cloud is not a keyframe cloud, a value is not finite).

@@ -15,17 +15,6 @@ const PlaceModel& required(const std::shared_ptr<const PlaceModel>& model) {
   return *model;
 }
 
-registration::VerificationParams verificationParams(const MatcherParams& params) {
-  registration::VerificationParams v;
-  v.min_inliers = params.min_inliers;
-  v.max_fitness_m2 = params.max_fitness_m2;
-  v.min_overlap = params.min_overlap;
-  v.overlap_distance_m = params.overlap_distance_m;
-  v.max_free_space_violation = params.max_free_space_violation;
-  v.free_space_margin_m = params.free_space_margin_m;
-  return v;
-}
-
 HistogramParams histogramParams(const MatcherParams& params) {
   HistogramParams h;
   h.min_votes = std::max(1, params.min_correspondences);
@@ -74,7 +63,7 @@ PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const Pl
     : params_(validated(params)),
       model_(std::move(model)),
       extractor_(required(model_).features),
-      verifier_(verificationParams(params_)),
+      verifier_(params_.verification),
       fabmap_model_(model_->tree, FabMapParams{}),
       own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))),
       kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))) {}
@@ -83,6 +72,23 @@ PlaceMatcher::~PlaceMatcher() = default;
 
 std::size_t PlaceMatcher::places() const { return own_->places.size(); }
 std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
+
+backend::LoopClosureData PlaceMatcher::loopClosure(const std::string& self,
+                                                   const MatchCandidate& match,
+                                                   const std::string& query_robot,
+                                                   KeyframeId query) const {
+  // An own query meeting a teammate's kept scan is "from"; otherwise the place is.
+  const bool own_query_meets_teammate = query_robot == self && !match.robot.empty();
+  backend::LoopClosureData loop;
+  loop.robot_from = self;
+  loop.keyframe_from = own_query_meets_teammate ? query : match.keyframe;
+  loop.robot_to = match.robot.empty() ? query_robot : match.robot;
+  loop.keyframe_to = own_query_meets_teammate ? match.keyframe : query;
+  loop.relative = match.verification.relative;
+  loop.covariance = match.verification.covariance;
+  loop.odom_pose_from = placeOdomPose(loop.keyframe_from);
+  return loop;
+}
 
 std::optional<Pose3> PlaceMatcher::placeOdomPose(KeyframeId id) const {
   const auto it = own_->index_of.find({std::string(), id});

@@ -13,7 +13,7 @@
 
 namespace ccir_mapping::core::alignment {
 
-using Matrix6 = Eigen::Matrix<double, 6, 6>;
+using core::Matrix6;
 
 /// One candidate: robot a's keyframe pose x^a_i, robot b's x^b_j (each in its own robot's
 /// frame), and the measured pose z of b's keyframe in a's keyframe frame.

@@ -18,6 +18,9 @@ using KeyframeId = std::uint64_t;
 /// Rigid transform in 3D; poses are "frame expressed in parent frame".
 using Pose3 = Eigen::Isometry3d;
 
+/// Covariance of a pose, over [x y z, rotation vector].
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
 constexpr double kNanosecondsPerSecond = 1e9;
 
 inline double toSeconds(Stamp stamp) { return static_cast<double>(stamp) / kNanosecondsPerSecond; }

@@ -6,6 +6,8 @@
 #include <string_view>
 #include <vector>
 
+#include "ccir_mapping/core/registration/verification_params.h"
+
 namespace ccir_mapping::core::place_recognition {
 
 /// FAB-MAP over bags of spin-image words, or the histogram-of-descriptors baseline.
@@ -30,20 +32,10 @@ struct MatcherParams {
   /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
   double own_loop_gate_m_per_m = 0.1;
   double own_loop_gate_rad_per_m = 0.01;
-  /// Verification acceptance: keypoints agreeing on the RANSAC transform (few: the wall overlap
-  /// and free-space tests below judge the alignment), and GICP fitness.
-  int min_inliers = 5;
-  double max_fitness_m2 = 0.1;
-  /// ... and the share of wall points each scan explains of the other within
-  /// overlap_distance_m (scan_verifier.h). Tight: a place one pillar away differs by the
-  /// pillars' size and angle jitter (decimetres), a true revisit only by sensor noise.
-  double min_overlap = 0.6;
-  double overlap_distance_m = 0.1;
-  /// ... and the share of wall points lying where the other scan saw free space, farther than
-  /// free_space_margin_m (scan_verifier.h): what tells a pillar of a slightly different size
-  /// or a rubble box apart from a viewpoint change.
-  double max_free_space_violation = 0.01;
-  double free_space_margin_m = 0.15;
+  /// Loop-closure verification: the acceptance tests (minimum inliers, fitness, wall overlap,
+  /// free space) and how the scans are aligned; the same struct bench_place_recognition and
+  /// eval_place_recognition measure.
+  registration::VerificationParams verification;
 
   std::vector<std::string> validate() const;
 };

@@ -15,6 +15,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
@@ -62,6 +63,11 @@ class PlaceMatcher {
   std::size_t places() const;
   /// The odometry pose of an own place (keyframe), if it is one and had one.
   std::optional<Pose3> placeOdomPose(KeyframeId id) const;
+  /// `match`, found for keyframe `query` of `query_robot` (robot `self`'s own or a teammate's),
+  /// as a loop closure: "from" is always this robot's keyframe (of an own loop the older one,
+  /// the place), with its odometry pose when it is a place that had one.
+  backend::LoopClosureData loopClosure(const std::string& self, const MatchCandidate& match,
+                                       const std::string& query_robot, KeyframeId query) const;
 
   /// Features (with the model's settings), words and verification cloud of a keyframe cloud in
   /// its sensor frame; `up` is gravity's opposite in that frame.

@@ -10,19 +10,10 @@
 
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/backend/backend_params.h"
+#include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
 
-namespace ccir_mapping::core::backend {
-
-struct LoopClosureData {
-  std::string robot_from;
-  KeyframeId keyframe_from = 0;
-  std::string robot_to;
-  KeyframeId keyframe_to = 0;
-  /// Pose of keyframe "to" in keyframe "from"'s frame, covariance over [x y z, rotation].
-  Pose3 relative = Pose3::Identity();
-  alignment::Matrix6 covariance = alignment::Matrix6::Identity();
-};
+namespace ccir_mapping::core::team {
 
 struct TeamEstimate {
   std::string peer;
@@ -58,7 +49,7 @@ struct BackendSnapshot {
 class TeamGraph {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors.
-  TeamGraph(std::string robot, const BackendParams& params);
+  TeamGraph(std::string robot, const backend::BackendParams& params);
 
   /// This robot's keyframes, in id order (ids increasing), with their odometry poses.
   /// Returns false (and changes nothing) for a non-increasing id or an invalid pose.
@@ -68,10 +59,10 @@ class TeamGraph {
   /// Intra- or inter-robot; kept until both keyframes are known. False when it concerns neither
   /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose), or when
   /// knows() it.
-  bool addLoopClosure(const LoopClosureData& loop);
+  bool addLoopClosure(const backend::LoopClosureData& loop);
   /// Whether a closure between the same two keyframes (either direction) was added: both robots
   /// of a pair may find and share it, and it must count once.
-  bool knows(const LoopClosureData& loop) const;
+  bool knows(const backend::LoopClosureData& loop) const;
 
   /// Optimises the graph and re-estimates every team transform.
   BackendSnapshot optimize();
@@ -85,24 +76,24 @@ class TeamGraph {
 
  private:
   std::string robot_;
-  BackendParams params_;
-  PoseGraphOptimizer optimizer_;
-  PoseGraph graph_;  // this robot's keyframes
+  backend::BackendParams params_;
+  backend::PoseGraphOptimizer optimizer_;
+  backend::PoseGraph graph_;  // this robot's keyframes
   std::vector<KeyframeId> ids_;
   std::vector<Stamp> stamps_;
   std::vector<Pose3> odom_poses_;
-  OdometryUncertainty odom_uncertainty_;
-  std::vector<Covariance6> odom_covariances_;  // of odom_poses_, world frame
+  backend::OdometryUncertainty odom_uncertainty_;
+  std::vector<backend::Covariance6> odom_covariances_;  // of odom_poses_, world frame
   std::map<KeyframeId, int> index_;
   std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
-  std::vector<LoopClosureData> loops_;  // all of them; resolved at each optimisation
+  std::vector<backend::LoopClosureData> loops_;  // all of them; resolved at each optimisation
   /// The two keyframes of each of loops_, in a fixed order.
   using KeyframeOf = std::pair<std::string, KeyframeId>;
   using LoopKey = std::pair<KeyframeOf, KeyframeOf>;
-  static LoopKey keyOf(const LoopClosureData& loop);
+  static LoopKey keyOf(const backend::LoopClosureData& loop);
   std::set<LoopKey> loop_keys_;
   std::vector<double> last_weights_;
-  PoseGraph last_graph_;  // graph_ with the loops of the last optimisation
+  backend::PoseGraph last_graph_;  // graph_ with the loops of the last optimisation
 };
 
-}  // namespace ccir_mapping::core::backend
+}  // namespace ccir_mapping::core::team

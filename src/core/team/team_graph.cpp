@@ -1,4 +1,4 @@
-#include "ccir_mapping/core/backend/team_graph.h"
+#include "ccir_mapping/core/team/team_graph.h"
 
 #include <chrono>
 #include <stdexcept>
@@ -7,7 +7,19 @@
 
 #include "ccir_mapping/core/common/param_check.h"
 
-namespace ccir_mapping::core::backend {
+namespace ccir_mapping::core::team {
+
+using backend::BackendParams;
+using backend::Covariance6;
+using backend::inBodyFrame;
+using backend::LoopClosureData;
+using backend::OdometryUncertainty;
+using backend::OptimizationResult;
+using backend::OptimizerParams;
+using backend::PoseGraph;
+using backend::PoseGraphEdge;
+using backend::stepCovariance;
+
 namespace {
 
 OptimizerParams optimizerParams(const BackendParams& p) {
@@ -64,7 +76,7 @@ bool TeamGraph::addLoopClosure(const LoopClosureData& loop) {
       loop.keyframe_from == loop.keyframe_to) {
     return false;
   }
-  const Eigen::LLT<alignment::Matrix6> llt(loop.covariance);
+  const Eigen::LLT<Matrix6> llt(loop.covariance);
   if (llt.info() != Eigen::Success || knows(loop)) return false;
   loops_.push_back(loop);
   loop_keys_.insert(keyOf(loop));
@@ -202,4 +214,4 @@ std::optional<std::vector<double>> TeamGraph::positionVariances(
   return variances;
 }
 
-}  // namespace ccir_mapping::core::backend
+}  // namespace ccir_mapping::core::team

@@ -1,0 +1,46 @@
+// A verified relative pose between two keyframes, and what a robot does with one: whether it can
+// enter a pose graph, and whether it is this robot's to use, to forward to its teammates, or
+// another pair's business.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "ccir_mapping/core/common/types.h"
+
+namespace ccir_mapping::core::backend {
+
+struct LoopClosureData {
+  std::string robot_from;
+  KeyframeId keyframe_from = 0;
+  std::string robot_to;
+  KeyframeId keyframe_to = 0;
+  /// Pose of keyframe "to" in keyframe "from"'s frame, covariance over [x y z, rotation].
+  Pose3 relative = Pose3::Identity();
+  Matrix6 covariance = Matrix6::Identity();
+  /// Keyframe "from"'s odometry pose, when the robot that found the closure sent it along.
+  std::optional<Pose3> odom_pose_from;
+};
+
+/// Why `loop` cannot enter a pose graph, or nullopt: a robot not named, a relative pose that is
+/// not a finite rigid transform, a covariance that is not finite and positive definite.
+std::optional<std::string> loopClosureProblem(const LoopClosureData& loop);
+
+enum class LoopRoute {
+  kUse,            ///< into this robot's graph
+  kUseAndForward,  ///< into the graph and to the teammates: an inter-robot closure it found
+  kIgnore,         ///< between two other robots, or found by this robot itself
+  kDrop,           ///< not what its source may send (warned about and counted)
+};
+
+/// A closure this robot's Matcher found: it must involve this robot; an inter-robot one also
+/// goes to the teammates (each robot verifies only the scans it received, so without them the
+/// two robots of a pair would each see a part of its closures).
+LoopRoute routeOwnLoop(const std::string& self, const LoopClosureData& loop);
+
+/// A closure a teammate found and sent (its own keyframe is "from"): used when it joins that
+/// teammate to this robot, ignored when it is between others or this robot's own coming back;
+/// dropped without the teammate's keyframe pose, which this robot may not have.
+LoopRoute routeTeammateLoop(const std::string& self, const LoopClosureData& loop);
+
+}  // namespace ccir_mapping::core::backend

@@ -1,0 +1,243 @@
+// One robot's TeamGraph (own keyframes, teammates' frames from inter-robot loop closures) and the
+// worker that runs it on a thread of its own.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
+
+#include <Eigen/Geometry>
+
+#include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/core/team/team_graph.h"
+#include "ccir_mapping/core/team/team_graph_worker.h"
+
+namespace ccir_mapping::core::team {
+namespace {
+
+using backend::BackendParams;
+using backend::LoopClosureData;
+
+TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
+  alignment::SyntheticSpec spec;
+  spec.keyframes = 80;
+  spec.inliers = 15;
+  spec.outliers = 45;
+  spec.seed = 5;
+  const auto s = alignment::makeSyntheticCandidates(spec);
+  // The synthetic poses are exact, and robot b's keyframes hop 2 m around robot a's path: with
+  // the default odometry noise their drift would swamp the 10 cm loops.
+  BackendParams params;
+  params.odometry = {1e-3, 1e-4, 1e-3};
+  TeamGraph graph("robot_a", params);
+  for (std::size_t i = 0; i < s.poses_a.size(); ++i) {
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(100.0 + i), s.poses_a[i]));
+    ASSERT_TRUE(graph.addPeerKeyframe("robot_b", i, s.poses_b[i]));
+  }
+  EXPECT_FALSE(graph.addKeyframe(3, 0, s.poses_a[3]));  // ids must increase
+  int added = 0;
+  int true_added = 0;
+  for (std::size_t k = 0; k < s.candidates.size(); ++k) {
+    LoopClosureData loop;
+    const bool outgoing = k % 2 == 0;
+    loop.robot_from = outgoing ? "robot_a" : "robot_b";
+    loop.keyframe_from = static_cast<KeyframeId>(outgoing ? s.index_a[k] : s.index_b[k]);
+    loop.robot_to = outgoing ? "robot_b" : "robot_a";
+    loop.keyframe_to = static_cast<KeyframeId>(outgoing ? s.index_b[k] : s.index_a[k]);
+    loop.relative = outgoing ? s.candidates[k].measurement : s.candidates[k].measurement.inverse();
+    loop.covariance = s.candidates[k].covariance;
+    // The same closure found by both robots (the other way round) counts once; the random
+    // candidates repeat a pair now and then.
+    if (graph.knows(loop)) {
+      EXPECT_FALSE(graph.addLoopClosure(loop));
+      continue;
+    }
+    ASSERT_TRUE(graph.addLoopClosure(loop));
+    ++added;
+    true_added += s.inlier[k];
+  }
+  ASSERT_GE(true_added, 12);
+  LoopClosureData again;
+  again.robot_from = "robot_b";
+  again.keyframe_from = static_cast<KeyframeId>(s.index_b[0]);
+  again.robot_to = "robot_a";
+  again.keyframe_to = static_cast<KeyframeId>(s.index_a[0]);
+  EXPECT_TRUE(graph.knows(again));
+  EXPECT_FALSE(graph.addLoopClosure(again));
+  again.keyframe_to += 1000;
+  EXPECT_FALSE(graph.knows(again));
+  LoopClosureData strangers;
+  strangers.robot_from = "robot_b";
+  strangers.robot_to = "robot_c";
+  EXPECT_FALSE(graph.addLoopClosure(strangers));
+
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_EQ(snapshot.poses.size(), 80U);
+  EXPECT_TRUE(snapshot.poses.back().isApprox(s.poses_a.back(), 1e-6));  // no intra loops
+  ASSERT_EQ(snapshot.team.size(), 1U);
+  const auto& estimate = snapshot.team.front();
+  EXPECT_EQ(estimate.candidates, added);
+  ASSERT_TRUE(estimate.alignment.found) << estimate.alignment.reason;
+  const Pose3 error = s.truth.inverse() * estimate.alignment.transform;
+  EXPECT_LT(error.translation().norm(), 0.1);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, 1.0);
+  const auto covariance = graph.covariances({10});
+  ASSERT_TRUE(covariance);
+  EXPECT_GT(covariance->front().trace(), 0.0);
+  // What rviz draws: one line per inlier, from own keyframe to the teammate's placed with the
+  // transform, where it truly is.
+  ASSERT_EQ(snapshot.loop_lines.size(), static_cast<std::size_t>(estimate.alignment.inlier_count));
+  for (const auto& line : snapshot.loop_lines) {
+    EXPECT_TRUE(line.inter_robot && line.accepted);
+    EXPECT_LT((line.from - line.to).norm(), 10.0);
+  }
+}
+
+TEST(TeamGraph, LoopsSeenAfterTheTeammatesDriftAgreeAndTheLeastDriftedWeighMost) {
+  // Both robots drive one 60 m corridor; robot b's odometry turns 0.1 deg too far per metre
+  // (6 deg and 3.6 m off at the end). Every place is closed exactly (1 cm, 0.06 deg): without
+  // the drift in the candidates' covariances only the first few loops would agree.
+  const Pose3 truth =
+      Pose3(Eigen::Translation3d(5, 2, 0)) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
+  TeamGraph graph("robot_a", BackendParams{});
+  std::vector<Pose3> odom_b;
+  for (int i = 0; i < 60; ++i) {
+    const Pose3 a(Eigen::Translation3d(i, 0, 0));
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(i), a));
+    const Pose3 true_b = truth.inverse() * a;
+    odom_b.push_back(
+        i == 0
+            ? true_b
+            : odom_b.back() * Eigen::AngleAxisd(0.1 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+                  (truth.inverse() * Pose3(Eigen::Translation3d(i - 1, 0, 0))).inverse() * true_b);
+    LoopClosureData loop;
+    loop.robot_from = "robot_a";
+    loop.keyframe_from = i;
+    loop.robot_to = "robot_b";
+    loop.keyframe_to = 100 + i;
+    loop.relative = a.inverse() * truth * true_b;
+    loop.covariance = Matrix6::Identity() * 1e-6;
+    ASSERT_TRUE(graph.addLoopClosure(loop));
+  }
+  for (int i = 59; i >= 0; --i) ASSERT_TRUE(graph.addPeerKeyframe("robot_b", 100 + i, odom_b[i]));
+  const auto end_drift =
+      (truth.inverse() * Pose3(Eigen::Translation3d(59, 0, 0))).inverse() * odom_b.back();
+  ASSERT_GT(end_drift.translation().norm(), 3.0);
+
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_EQ(snapshot.team.size(), 1U);
+  const auto& alignment = snapshot.team.front().alignment;
+  ASSERT_TRUE(alignment.found) << alignment.reason;
+  EXPECT_GE(alignment.inlier_count, 50);
+  const Pose3 error = truth.inverse() * alignment.transform;
+  EXPECT_LT(error.translation().norm(), 0.3);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, 1.0);
+}
+
+TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {
+  // 30 keyframes 1 m apart around a 10 m x 5 m rectangle; then a loop from the last to the
+  // first.
+  TeamGraph graph("robot_a", BackendParams{});
+  std::vector<Pose3> poses;
+  for (int i = 0; i < 30; ++i) {
+    const double s = i % 30;
+    Eigen::Vector3d p = s < 10   ? Eigen::Vector3d(s, 0, 0)
+                        : s < 15 ? Eigen::Vector3d(10, s - 10, 0)
+                        : s < 25 ? Eigen::Vector3d(25 - s, 5, 0)
+                                 : Eigen::Vector3d(0, 30 - s, 0);
+    poses.push_back(Pose3(Eigen::Translation3d(p)));
+    ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(i), poses.back()));
+  }
+  graph.optimize();
+  std::vector<KeyframeId> ids;
+  for (KeyframeId i = 0; i < 30; ++i) ids.push_back(i);
+  const auto open = graph.positionVariances(ids);
+  ASSERT_TRUE(open);
+  EXPECT_EQ((*open)[0], 0.0) << "the gauge keyframe";
+  // Farther along the path, more uncertain (not strictly at each corner, where heading error
+  // turns into the other axis).
+  for (std::size_t i = 4; i < 30; ++i) EXPECT_GT((*open)[i], (*open)[i - 3]) << i;
+
+  LoopClosureData loop;
+  loop.robot_from = loop.robot_to = "robot_a";
+  loop.keyframe_from = 29;
+  loop.keyframe_to = 0;
+  loop.relative = poses[29].inverse() * poses[0];
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  ASSERT_TRUE(graph.addLoopClosure(loop));
+  graph.optimize();
+  const auto closed = graph.positionVariances(ids);
+  ASSERT_TRUE(closed);
+  EXPECT_LT((*closed)[29], 0.2 * (*open)[29]);
+  EXPECT_LT((*closed)[15], (*open)[15]);
+  EXPECT_FALSE(graph.positionVariances({99})) << "an unknown keyframe";
+}
+
+TEST(TeamGraphWorker, OptimisesOnATickAndAtOnceForALoopClosureAndReportsWhatItRefused) {
+  using Worker = TeamGraphWorker;
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<BackendSnapshot> snapshots;
+  std::vector<std::pair<Worker::Refusal, std::string>> refusals;
+  int batches = 0;
+  Worker::Hooks hooks;
+  hooks.run = [&](const std::function<BackendSnapshot()>& batch) {
+    ++batches;  // the worker's thread only
+    return batch();
+  };
+  hooks.optimized = [&](const BackendSnapshot& snapshot, const TeamGraph& graph) {
+    EXPECT_TRUE(graph.positionVariances(snapshot.ids)) << "the graph can be asked more";
+    std::lock_guard<std::mutex> lock(mutex);
+    snapshots.push_back(snapshot);
+    changed.notify_all();
+  };
+  hooks.refused = [&](Worker::Refusal why, const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex);
+    refusals.emplace_back(why, what);
+  };
+  // Generous: the worker shares a slow machine with everything else.
+  const auto optimised = [&](std::size_t n) {
+    std::unique_lock<std::mutex> lock(mutex);
+    return changed.wait_for(lock, std::chrono::seconds(60), [&] { return snapshots.size() >= n; });
+  };
+  std::vector<Pose3> poses;
+  {
+    Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks);
+    for (KeyframeId id = 0; id < 5; ++id) {
+      poses.push_back(Pose3(Eigen::Translation3d(double(id), 0.0, 0.0)));
+      worker.add(Worker::OwnKeyframe{id, fromSeconds(100.0 + id), poses.back()});
+    }
+    worker.add(Worker::OwnKeyframe{2, fromSeconds(106.0), poses[2]});  // ids must increase
+    worker.tick();
+    ASSERT_TRUE(optimised(1));
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      EXPECT_EQ(snapshots[0].poses.size(), 5U);
+      ASSERT_EQ(refusals.size(), 1U);
+      EXPECT_EQ(refusals[0].first, Worker::Refusal::kKeyframe);
+      EXPECT_EQ(refusals[0].second, "keyframe 2");
+    }
+    // A loop closure is optimised without waiting for a tick; the same one again is a
+    // duplicate (a teammate found it too).
+    LoopClosureData loop;
+    loop.robot_from = loop.robot_to = "robot_a";
+    loop.keyframe_from = 0;
+    loop.keyframe_to = 4;
+    loop.relative = poses[0].inverse() * poses[4];
+    loop.covariance = Matrix6::Identity() * 1e-4;
+    worker.add(loop);
+    ASSERT_TRUE(optimised(2));
+    worker.add(loop);
+    ASSERT_TRUE(optimised(3));
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_EQ(snapshots[1].intra_loops, 1);
+    ASSERT_EQ(refusals.size(), 2U);
+    EXPECT_EQ(refusals[1].first, Worker::Refusal::kDuplicateLoopClosure);
+    EXPECT_EQ(refusals[1].second, "loop closure robot_a/0 -> robot_a/4");
+  }  // stops and joins
+  EXPECT_EQ(batches, 3) << "a batch per optimisation";
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::team
