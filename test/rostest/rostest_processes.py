@@ -1,6 +1,7 @@
 """Processes of a rostest that runs its own ROS masters (one per robot, as in the field):
 spawned in their own process groups, logged to files, stopped in reverse order."""
 import os
+import random
 import signal
 import socket
 import subprocess
@@ -8,9 +9,20 @@ import time
 
 
 def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A free TCP port below the ephemeral range: a port the kernel hands out (bind to 0) may be
+    taken by one of the many outgoing connections made before the process it was chosen for
+    binds it, and that process would then fail to listen."""
+    with open("/proc/sys/net/ipv4/ip_local_port_range") as f:
+        ephemeral = int(f.read().split()[0])
+    for _ in range(1000):
+        port = random.randint(max(1024, ephemeral - 12000), ephemeral - 1)
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+                return port
+            except OSError:
+                continue
+    raise RuntimeError("no free TCP port below %d" % ephemeral)
 
 
 class Processes:
