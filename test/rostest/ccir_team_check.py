@@ -82,7 +82,7 @@ class CcirTeam(Processes, unittest.TestCase):
                 if not stats or not stats["connected"]:
                     return False
             return True
-        self.wait_for(linked, 120, "every robot's links came up")
+        self.wait_for(linked, 300, "every robot's links came up")
         # At 0.3 x so that three pipelines keep up on a slow two-core machine (rates follow
         # mission time, so the outcome does not depend on the speed).
         players = [self.spawn("play_" + robot,
