@@ -4,14 +4,12 @@
 // teammate_scans and acknowledges them. The teammates are those of this robot's Bridge.
 #include <map>
 #include <mutex>
-#include <sstream>
 
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Path.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "ccir_mapping/BrokerConfig.h"
 #include "ccir_mapping/BrokerStats.h"
 #include "ccir_mapping/Correspondences.h"
 #include "ccir_mapping/KeyframeFeatures.h"
@@ -21,6 +19,7 @@
 #include "ccir_mapping/core/routing/ccir_broker.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
+#include "ccir_mapping/ros/reconfigure_tables.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
@@ -323,28 +322,14 @@ class BrokerNodelet final : public PipelineNodelet {
 
   void onReconfigure(BrokerConfig& config) {
     std::lock_guard<std::mutex> lock(mutex_);
-    routing::BrokerParams candidate = settings_.core;
-    candidate.loop_closure_weight = config.loop_closure_weight;
-    candidate.unknown_transform_factor = config.unknown_transform_factor;
-    candidate.fixed_rate_every_n = config.fixed_rate_every_n;
-    const auto errors = candidate.validate();
-    if (!errors.empty()) {
-      NODELET_ERROR("reconfigure rejected: %s", errors.front().c_str());
-      config.loop_closure_weight = settings_.core.loop_closure_weight;
-      config.unknown_transform_factor = settings_.core.unknown_transform_factor;
-      config.fixed_rate_every_n = settings_.core.fixed_rate_every_n;
+    const auto outcome = ros_params::brokerReconfigure().apply(config, settings_.core);
+    if (outcome.error) {
+      NODELET_ERROR("reconfigure rejected: %s", outcome.error->c_str());
       return;
     }
-    std::ostringstream changes;
-    noteChange(changes, "loop_closure_weight", settings_.core.loop_closure_weight,
-               candidate.loop_closure_weight);
-    noteChange(changes, "unknown_transform_factor", settings_.core.unknown_transform_factor,
-               candidate.unknown_transform_factor);
-    noteChange(changes, "fixed_rate_every_n", settings_.core.fixed_rate_every_n,
-               candidate.fixed_rate_every_n);
-    if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
-    settings_.core = candidate;
-    broker_->setParams(candidate);
+    if (!outcome.changes.empty()) NODELET_INFO("reconfigured:%s", outcome.changes.c_str());
+    settings_.core = outcome.params;
+    broker_->setParams(outcome.params);
   }
 
   ros_params::BrokerSettings settings_;

@@ -7,7 +7,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <ostream>
 #include <string>
 #include <vector>
 
@@ -51,12 +50,6 @@ class PipelineNodelet : public nodelet::Nodelet {
     if (!reader.errors().empty()) return false;
     settings = loaded;
     return true;
-  }
-
-  /// Appends " name before -> after" to `changes` when a reconfigured value changed.
-  template <class T>
-  static void noteChange(std::ostream& changes, const char* name, const T& before, const T& after) {
-    if (before != after) changes << " " << name << " " << before << " -> " << after;
   }
 
   /// A configuration error found after loadSettings (e.g. a file a parameter names): logs it as

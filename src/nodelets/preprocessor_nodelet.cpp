@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
-#include <sstream>
 
 #include <dynamic_reconfigure/server.h>
 #include <nav_msgs/Odometry.h>
@@ -16,7 +15,6 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
-#include "ccir_mapping/PreprocessorConfig.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
@@ -24,6 +22,7 @@
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
+#include "ccir_mapping/ros/reconfigure_tables.h"
 #include "ccir_mapping/ros/topics.h"
 #include "pipeline_nodelet.h"
 
@@ -289,42 +288,15 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onReconfigure(PreprocessorConfig& config) {
     // The server already holds reconfigure_mutex_; mutex_ guards what callbacks read.
     std::lock_guard<std::mutex> lock(mutex_);
-    core::preprocess::PreprocessorParams candidate = settings_.core;
-    candidate.min_range_m = config.min_range_m;
-    candidate.max_range_m = config.max_range_m;
-    candidate.voxel_leaf_m = config.voxel_leaf_m;
-    candidate.normal_radius_m = config.normal_radius_m;
-    candidate.horizontal_normal_z = config.horizontal_normal_z;
-    candidate.keyframe_distance_m = config.keyframe_distance_m;
-    candidate.keyframe_rotation_deg = config.keyframe_rotation_deg;
-    const auto errors = candidate.validate();
-    if (!errors.empty()) {
-      NODELET_ERROR("reconfigure rejected: %s", errors.front().c_str());
-      config.min_range_m = settings_.core.min_range_m;
-      config.max_range_m = settings_.core.max_range_m;
-      config.voxel_leaf_m = settings_.core.voxel_leaf_m;
-      config.normal_radius_m = settings_.core.normal_radius_m;
-      config.horizontal_normal_z = settings_.core.horizontal_normal_z;
-      config.keyframe_distance_m = settings_.core.keyframe_distance_m;
-      config.keyframe_rotation_deg = settings_.core.keyframe_rotation_deg;
+    const auto outcome = ros_params::preprocessorReconfigure().apply(config, settings_.core);
+    if (outcome.error) {
+      NODELET_ERROR("reconfigure rejected: %s", outcome.error->c_str());
       return;
     }
-    std::ostringstream changes;
-    noteChange(changes, "min_range_m", settings_.core.min_range_m, candidate.min_range_m);
-    noteChange(changes, "max_range_m", settings_.core.max_range_m, candidate.max_range_m);
-    noteChange(changes, "voxel_leaf_m", settings_.core.voxel_leaf_m, candidate.voxel_leaf_m);
-    noteChange(changes, "normal_radius_m", settings_.core.normal_radius_m,
-               candidate.normal_radius_m);
-    noteChange(changes, "horizontal_normal_z", settings_.core.horizontal_normal_z,
-               candidate.horizontal_normal_z);
-    noteChange(changes, "keyframe_distance_m", settings_.core.keyframe_distance_m,
-               candidate.keyframe_distance_m);
-    noteChange(changes, "keyframe_rotation_deg", settings_.core.keyframe_rotation_deg,
-               candidate.keyframe_rotation_deg);
-    if (!changes.str().empty()) NODELET_INFO("reconfigured:%s", changes.str().c_str());
-    settings_.core = candidate;
-    selector_->setParams(selectorParams(candidate));
-    preprocessor_ = std::make_unique<ScanPreprocessor>(candidate);
+    if (!outcome.changes.empty()) NODELET_INFO("reconfigured:%s", outcome.changes.c_str());
+    settings_.core = outcome.params;
+    selector_->setParams(selectorParams(outcome.params));
+    preprocessor_ = std::make_unique<ScanPreprocessor>(outcome.params);
   }
 
   // Once a minute at most: optional fields of the Velodyne layout that the clouds lack.

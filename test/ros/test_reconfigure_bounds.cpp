@@ -1,13 +1,13 @@
 // dynamic_reconfigure clamps to the .cfg bounds without telling the core: every value the .cfg
-// allows must be valid in the core, and the .cfg defaults must equal the core defaults.
+// allows must be valid in the core, the .cfg defaults must equal the core defaults, and every
+// .cfg key must have an entry in the nodelet's table (and no entry a key the .cfg lacks).
 #include <gtest/gtest.h>
 
-#include "ccir_mapping/BrokerConfig.h"
-#include "ccir_mapping/PreprocessorConfig.h"
-#include "ccir_mapping/core/preprocess/preprocessor_params.h"
-#include "ccir_mapping/core/routing/broker_params.h"
+#include <set>
 
-namespace ccir_mapping {
+#include "ccir_mapping/ros/reconfigure_tables.h"
+
+namespace ccir_mapping::ros_params {
 namespace {
 
 bool rangeError(const std::vector<std::string>& errors, const std::string& name) {
@@ -17,33 +17,59 @@ bool rangeError(const std::vector<std::string>& errors, const std::string& name)
   return false;
 }
 
-#define CCIR_EXPECT_FIELD(Core, Config, field)                                        \
-  do {                                                                                \
-    EXPECT_EQ(Core{}.field, Config::__getDefault__().field) << #field " default";     \
-    Core at_min, at_max;                                                              \
-    at_min.field = Config::__getMin__().field;                                        \
-    at_max.field = Config::__getMax__().field;                                        \
-    EXPECT_FALSE(rangeError(at_min.validate(), #field)) << #field " at the .cfg min"; \
-    EXPECT_FALSE(rangeError(at_max.validate(), #field)) << #field " at the .cfg max"; \
-  } while (0)
-
-TEST(ReconfigureBounds, Preprocessor) {
-  using Core = core::preprocess::PreprocessorParams;
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, min_range_m);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, max_range_m);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, voxel_leaf_m);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, normal_radius_m);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, horizontal_normal_z);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, keyframe_distance_m);
-  CCIR_EXPECT_FIELD(Core, PreprocessorConfig, keyframe_rotation_deg);
+template <class Config, class Params>
+void expectTableMatchesCfg(const ReconfigureTable<Config, Params>& table) {
+  std::set<std::string> cfg_keys, table_keys;
+  for (const auto& description : Config::__getParamDescriptions__()) {
+    cfg_keys.insert(description->name);
+  }
+  for (const auto& entry : table.entries()) {
+    table_keys.insert(entry.name);
+    Params from_default, at_min, at_max;
+    entry.to_params(Config::__getDefault__(), from_default);
+    std::ostringstream changed;
+    entry.note_change(Params{}, from_default, changed);
+    EXPECT_EQ(changed.str(), "") << entry.name << ": the .cfg default is not the core's";
+    entry.to_params(Config::__getMin__(), at_min);
+    entry.to_params(Config::__getMax__(), at_max);
+    EXPECT_FALSE(rangeError(at_min.validate(), entry.name)) << entry.name << " at the .cfg min";
+    EXPECT_FALSE(rangeError(at_max.validate(), entry.name)) << entry.name << " at the .cfg max";
+  }
+  EXPECT_EQ(cfg_keys, table_keys);
 }
 
-TEST(ReconfigureBounds, Broker) {
-  using Core = core::routing::BrokerParams;
-  CCIR_EXPECT_FIELD(Core, BrokerConfig, loop_closure_weight);
-  CCIR_EXPECT_FIELD(Core, BrokerConfig, unknown_transform_factor);
-  CCIR_EXPECT_FIELD(Core, BrokerConfig, fixed_rate_every_n);
+TEST(ReconfigureBounds, Preprocessor) { expectTableMatchesCfg(preprocessorReconfigure()); }
+
+TEST(ReconfigureBounds, Broker) { expectTableMatchesCfg(brokerReconfigure()); }
+
+TEST(ReconfigureTable, AppliesValidChangesAndNamesThem) {
+  core::routing::BrokerParams current;
+  BrokerConfig config = BrokerConfig::__getDefault__();
+  config.fixed_rate_every_n = 7;
+  const auto outcome = brokerReconfigure().apply(config, current);
+  EXPECT_FALSE(outcome.error);
+  EXPECT_EQ(outcome.params.fixed_rate_every_n, 7);
+  EXPECT_EQ(outcome.params.loop_closure_weight, current.loop_closure_weight);
+  EXPECT_EQ(outcome.changes, " fixed_rate_every_n 5 -> 7");
+  EXPECT_EQ(brokerReconfigure().apply(config, outcome.params).changes, "");
+}
+
+TEST(ReconfigureTable, RefusesAnInvalidCombinationAndResetsTheConfig) {
+  core::preprocess::PreprocessorParams current;
+  PreprocessorConfig config = PreprocessorConfig::__getDefault__();
+  // Each within its .cfg bounds, but not together: the core wants min < max.
+  config.min_range_m = 20.0;
+  config.max_range_m = 10.0;
+  config.voxel_leaf_m = 0.2;
+  const auto outcome = preprocessorReconfigure().apply(config, current);
+  ASSERT_TRUE(outcome.error);
+  EXPECT_NE(outcome.error->find("range"), std::string::npos) << *outcome.error;
+  EXPECT_EQ(outcome.params.voxel_leaf_m, current.voxel_leaf_m);
+  EXPECT_EQ(config.min_range_m, current.min_range_m);
+  EXPECT_EQ(config.max_range_m, current.max_range_m);
+  EXPECT_EQ(config.voxel_leaf_m, current.voxel_leaf_m);
+  EXPECT_EQ(outcome.changes, "");
 }
 
 }  // namespace
-}  // namespace ccir_mapping
+}  // namespace ccir_mapping::ros_params
