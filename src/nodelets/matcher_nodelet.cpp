@@ -69,12 +69,9 @@ class MatcherNodelet final : public PipelineNodelet {
       count(std::string("dropped ") + flow);
       return std::nullopt;
     }
-    // Gravity up in the sensor frame (odometry frames are gravity-aligned).
-    const Eigen::Vector3f up =
-        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
     auto described = measured("describe", [&] {
       return matcher_->describe(keyframe.id, conversions::toStamp(keyframe.header.stamp), cloud,
-                                up);
+                                core::upInFrame(*pose));
     });
     described.odom_pose = *pose;
     return described;

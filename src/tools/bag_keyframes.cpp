@@ -5,7 +5,7 @@
 #include <rosbag/view.h>
 #include <sensor_msgs/PointCloud2.h>
 
-#include "ccir_mapping/core/preprocess/keyframe_selector.h"
+#include "ccir_mapping/core/preprocess/keyframe_stage.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/ros/conversions.h"
 
@@ -16,11 +16,13 @@ std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOpt
                                const core::features::FeatureExtractor& extractor,
                                const std::function<void(BagKeyframe&&)>& consume) {
   constexpr double kOdometryToleranceS = 0.1;
-  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
+  core::preprocess::PreprocessorParams params;
+  params.keyframe_distance_m = options.keyframe_distance_m;
+  params.keyframe_rotation_deg = 180.0;  // by distance only
+  core::preprocess::KeyframeStage stage{params};
   rosbag::Bag bag(bag_path);
   core::preprocess::OdometryBuffer odometry;
   core::preprocess::OdometryBuffer truth;
-  core::preprocess::KeyframeSelector selector({options.keyframe_distance_m, M_PI});
   std::vector<std::string> topics{options.odom_topic, options.points_topic};
   if (!options.truth_topic.empty()) topics.push_back(options.truth_topic);
   std::size_t count = 0;
@@ -44,17 +46,13 @@ std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOpt
       k.true_pose = truth.at(k.stamp, kOdometryToleranceS);
       if (!k.true_pose) continue;
     }
-    if (selector.offer(k.stamp, *pose).outcome !=
-        core::preprocess::KeyframeSelector::Outcome::kKeyframe) {
-      continue;
-    }
-    k.odom_pose = *pose;
-    pcl::PointCloud<pcl::PointXYZI> scan;
+    core::preprocess::KeyframeStage::InputCloud scan;
     conversions::toPcl(*cloud, &scan);
-    const Eigen::Vector3f up =
-        (pose->linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
-    k.cloud = preprocessor.process(scan, up);
-    k.features = extractor.extract(*k.cloud, up);
+    auto result = stage.process(k.stamp, *pose, scan);
+    if (result.outcome != core::preprocess::KeyframeStage::Outcome::kKeyframe) continue;
+    k.odom_pose = *pose;
+    k.cloud = std::move(result.cloud);
+    k.features = extractor.extract(*k.cloud, core::upInFrame(*pose));
     consume(std::move(k));
     ++count;
   }

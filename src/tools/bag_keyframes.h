@@ -25,8 +25,9 @@ struct BagKeyframeOptions {
   double keyframe_distance_m = 2.0;
 };
 
-/// Reads `bag_path` in bag order, takes a keyframe every `keyframe_distance_m` of odometry,
-/// preprocesses and describes it, and hands it to `consume`. Returns the number of keyframes;
+/// Reads `bag_path` in bag order, takes a keyframe every `keyframe_distance_m` of odometry
+/// through the Preprocessor's stage (core::preprocess::KeyframeStage, default parameters
+/// otherwise), describes it, and hands it to `consume`. Returns the number of keyframes;
 /// malformed clouds and scans without odometry are skipped. Throws rosbag::BagException when the
 /// bag cannot be read.
 std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOptions& options,

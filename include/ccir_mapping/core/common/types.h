@@ -29,6 +29,12 @@ inline Stamp fromSeconds(double seconds) {
   return static_cast<Stamp>(std::llround(seconds * kNanosecondsPerSecond));
 }
 
+/// The unit up direction (against gravity) in a frame whose pose in a gravity-aligned frame (an
+/// odometry or map frame) is `frame_pose`: what the normal filters need in the sensor frame.
+inline Eigen::Vector3f upInFrame(const Pose3& frame_pose) {
+  return (frame_pose.linear().transpose() * Eigen::Vector3d::UnitZ()).cast<float>();
+}
+
 /// True when every coefficient is finite and the rotation is orthonormal.
 bool isValidPose(const Pose3& pose);
 

@@ -1,0 +1,51 @@
+// Where a scan was taken: the sensor frame in the odometry frame at the scan's stamp, from tf
+// (odom_source "tf": odom_frame -> sensor frame at the stamp) or from odometry messages and the
+// sensor mount on tf (odom_source "topic": base_frame in odom_frame, interpolated; the mount is
+// static, so its latest transform is used).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <nav_msgs/Odometry.h>
+#include <tf2_ros/buffer.h>
+
+#include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/preprocess/odometry_buffer.h"
+
+namespace ccir_mapping::ros_params {
+struct PreprocessorSettings;
+}
+
+namespace ccir_mapping {
+
+class ScanPlacement {
+ public:
+  /// `odometry_topic` is named in the explanations of scans that wait for odometry.
+  ScanPlacement(const ros_params::PreprocessorSettings& settings, std::string odometry_topic);
+
+  /// The buffer a tf2_ros::TransformListener fills.
+  tf2_ros::Buffer& tf() { return tf_; }
+
+  /// Keeps the odometry for placing scans; otherwise says why it was refused ("in frames ...",
+  /// "at <stamp>: pose is not finite", "at <stamp>: stamp not after the previous one").
+  std::optional<std::string> addOdometry(const nav_msgs::Odometry& msg);
+
+  /// True once what places a scan of `sensor_frame` at `stamp` has arrived (tf at its stamp, or
+  /// odometry at or after it and the mount); otherwise false, saying why in `why` when given.
+  bool placeable(const std::string& sensor_frame, const ros::Time& stamp,
+                 std::string* why = nullptr) const;
+
+  /// The sensor frame in odom_frame at `stamp`, or std::nullopt with the reason in `why`.
+  std::optional<core::Pose3> sensorPose(const std::string& sensor_frame, const ros::Time& stamp,
+                                        std::string* why) const;
+
+ private:
+  bool from_tf_;
+  std::string odom_frame_, base_frame_, odometry_topic_;
+  double odom_tolerance_s_;
+  core::preprocess::OdometryBuffer odometry_;
+  tf2_ros::Buffer tf_;
+};
+
+}  // namespace ccir_mapping

@@ -1,0 +1,65 @@
+#include "ccir_mapping/ros/scan_placement.h"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include "ccir_mapping/ros/conversions.h"
+#include "ccir_mapping/ros/params.h"
+
+namespace ccir_mapping {
+
+ScanPlacement::ScanPlacement(const ros_params::PreprocessorSettings& settings,
+                             std::string odometry_topic)
+    : from_tf_(settings.odom_source == "tf"),
+      odom_frame_(settings.frames.odom_frame),
+      base_frame_(settings.frames.base_frame),
+      odometry_topic_(std::move(odometry_topic)),
+      odom_tolerance_s_(settings.core.odom_tolerance_s) {}
+
+std::optional<std::string> ScanPlacement::addOdometry(const nav_msgs::Odometry& msg) {
+  if (msg.header.frame_id != odom_frame_ || msg.child_frame_id != base_frame_) {
+    return "in frames '" + msg.header.frame_id + "' -> '" + msg.child_frame_id + "': expected '" +
+           odom_frame_ + "' -> '" + base_frame_ + "'";
+  }
+  const auto pose = conversions::toPose(msg.pose.pose);
+  const std::string at = "at " + std::to_string(msg.header.stamp.toSec());
+  if (!pose) return at + ": pose is not finite";
+  if (!odometry_.add(conversions::toStamp(msg.header.stamp), *pose)) {
+    return at + ": stamp not after the previous one";
+  }
+  return std::nullopt;
+}
+
+bool ScanPlacement::placeable(const std::string& sensor_frame, const ros::Time& stamp,
+                              std::string* why) const {
+  if (from_tf_) return tf_.canTransform(odom_frame_, sensor_frame, stamp, why);
+  const auto newest = odometry_.newestStamp();
+  if (!newest || conversions::toStamp(stamp) > *newest) {
+    if (why) *why = "no odometry at or after its stamp on '" + odometry_topic_ + "'";
+    return false;
+  }
+  return sensor_frame == base_frame_ ||
+         tf_.canTransform(base_frame_, sensor_frame, ros::Time(0), why);
+}
+
+std::optional<core::Pose3> ScanPlacement::sensorPose(const std::string& sensor_frame,
+                                                     const ros::Time& stamp,
+                                                     std::string* why) const {
+  try {
+    if (from_tf_) {
+      return tf2::transformToEigen(tf_.lookupTransform(odom_frame_, sensor_frame, stamp));
+    }
+    const auto base = odometry_.at(conversions::toStamp(stamp), odom_tolerance_s_);
+    if (!base) {
+      *why = "no odometry within odom_tolerance_s of the scan";
+      return std::nullopt;
+    }
+    if (sensor_frame == base_frame_) return base;
+    return *base *
+           tf2::transformToEigen(tf_.lookupTransform(base_frame_, sensor_frame, ros::Time(0)));
+  } catch (const tf2::TransformException& e) {
+    *why = e.what();
+    return std::nullopt;
+  }
+}
+
+}  // namespace ccir_mapping

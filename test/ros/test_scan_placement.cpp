@@ -1,0 +1,91 @@
+// Where the Preprocessor places a scan (ScanPlacement): from tf at the scan's stamp, or from
+// odometry (interpolated, refused when in other frames, not finite or going back) and the static
+// sensor mount; scans wait, with a reason, until what places them has arrived.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ccir_mapping/ros/params.h"
+#include "ccir_mapping/ros/scan_placement.h"
+
+namespace ccir_mapping {
+namespace {
+
+ros_params::PreprocessorSettings settings(const std::string& odom_source) {
+  ros_params::PreprocessorSettings s;
+  s.frames.odom_frame = "r/odom";
+  s.frames.base_frame = "r/base_link";
+  s.odom_source = odom_source;
+  return s;
+}
+
+nav_msgs::Odometry odometry(double t, double x, const std::string& parent = "r/odom") {
+  nav_msgs::Odometry msg;
+  msg.header.stamp = ros::Time(t);
+  msg.header.frame_id = parent;
+  msg.child_frame_id = "r/base_link";
+  msg.pose.pose.position.x = x;
+  msg.pose.pose.orientation.w = 1.0;
+  return msg;
+}
+
+geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child,
+                                          double t, double x, double z = 0.0) {
+  geometry_msgs::TransformStamped msg;
+  msg.header.stamp = ros::Time(t);
+  msg.header.frame_id = parent;
+  msg.child_frame_id = child;
+  msg.transform.translation.x = x;
+  msg.transform.translation.z = z;
+  msg.transform.rotation.w = 1.0;
+  return msg;
+}
+
+TEST(ScanPlacement, FromOdometryAndTheSensorMount) {
+  ScanPlacement placement(settings("topic"), "/r/odom");
+  std::string why;
+  EXPECT_FALSE(placement.placeable("r/velodyne", ros::Time(1.05), &why));
+  EXPECT_NE(why.find("no odometry at or after its stamp on '/r/odom'"), std::string::npos) << why;
+
+  EXPECT_FALSE(placement.addOdometry(odometry(1.0, 0.0)));
+  EXPECT_FALSE(placement.addOdometry(odometry(1.1, 1.0)));
+  const auto wrong = placement.addOdometry(odometry(3.0, 2.0, "other/odom"));
+  ASSERT_TRUE(wrong);
+  EXPECT_NE(wrong->find("in frames 'other/odom' -> 'r/base_link'"), std::string::npos) << *wrong;
+  const auto back = placement.addOdometry(odometry(1.05, 2.0));
+  ASSERT_TRUE(back);
+  EXPECT_NE(back->find("stamp not after the previous one"), std::string::npos) << *back;
+  auto not_finite = odometry(3.0, std::nan(""));
+  ASSERT_TRUE(placement.addOdometry(not_finite));
+
+  // Odometry covers the stamp, but the mount is not on tf yet.
+  EXPECT_TRUE(placement.placeable("r/base_link", ros::Time(1.05)));
+  EXPECT_FALSE(placement.placeable("r/velodyne", ros::Time(1.05), &why));
+  EXPECT_FALSE(placement.placeable("r/base_link", ros::Time(1.2)));
+  placement.tf().setTransform(transform("r/base_link", "r/velodyne", 0.0, 0.2, 0.5), "test", true);
+  ASSERT_TRUE(placement.placeable("r/velodyne", ros::Time(1.05), &why)) << why;
+  const auto pose = placement.sensorPose("r/velodyne", ros::Time(1.05), &why);
+  ASSERT_TRUE(pose) << why;
+  EXPECT_NEAR(pose->translation().x(), 0.5 + 0.2, 1e-9);
+  EXPECT_NEAR(pose->translation().z(), 0.5, 1e-9);
+}
+
+TEST(ScanPlacement, FromTfAtTheScansStamp) {
+  ScanPlacement placement(settings("tf"), "/r/odom");
+  placement.tf().setTransform(transform("r/odom", "r/base_link", 1.0, 0.0), "test");
+  placement.tf().setTransform(transform("r/odom", "r/base_link", 2.0, 2.0), "test");
+  placement.tf().setTransform(transform("r/base_link", "r/velodyne", 0.0, 0.1), "test", true);
+  std::string why;
+  ASSERT_TRUE(placement.placeable("r/velodyne", ros::Time(1.25), &why)) << why;
+  const auto pose = placement.sensorPose("r/velodyne", ros::Time(1.25), &why);
+  ASSERT_TRUE(pose) << why;
+  EXPECT_NEAR(pose->translation().x(), 0.5 + 0.1, 1e-9);
+  EXPECT_FALSE(placement.placeable("r/velodyne", ros::Time(2.5), &why));
+  EXPECT_FALSE(why.empty());
+  EXPECT_FALSE(placement.sensorPose("r/velodyne", ros::Time(2.5), &why));
+  EXPECT_FALSE(placement.sensorPose("no_such_frame", ros::Time(1.05), &why));
+  EXPECT_NE(why.find("no_such_frame"), std::string::npos) << why;
+}
+
+}  // namespace
+}  // namespace ccir_mapping
