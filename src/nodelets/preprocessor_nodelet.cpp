@@ -180,6 +180,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
                 const std::string& detail = "") {
     count("dropped scans");
     const ros::WallTime now = ros::WallTime::now();
+    std::lock_guard<std::mutex> lock(warned_mutex_);  // called with and without mutex_
     auto& last = last_warned_[problem];
     if (!last.isZero() && (now - last).toSec() < 5.0) return;
     last = now;
@@ -236,6 +237,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
   // Scans waiting for odometry or tf, in stamp order.
   core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> pending_{kMaxPendingScans};
   std::unique_ptr<KeyframeStage> stage_;
+  std::mutex warned_mutex_;                           // guards last_warned_
   std::map<std::string, ros::WallTime> last_warned_;  // by problem
   KeyframeStage::InputCloud scan_;                    // conversion buffer, reused scan after scan
   std::unique_ptr<ScanPlacement> placement_;
