@@ -57,8 +57,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
     count("in odom");
     std::lock_guard<std::mutex> lock(mutex_);
-    if (const auto error = placement_->addOdometry(*msg)) {
-      NODELET_WARN_THROTTLE(5.0, "dropping odometry %s", error->c_str());
+    if (const auto refusal = placement_->addOdometry(*msg)) {
+      warnPerProblem("odometry", msg->header.stamp, refusal->problem, refusal->detail);
       count("dropped odom");
       return;
     }
@@ -174,17 +174,22 @@ class PreprocessorNodelet final : public PipelineNodelet {
     keyframe_pub_.publish(keyframe);
   }
 
-  /// Warns once per 5 s for each `problem` (one throttle per call site would hide all but the
-  /// first kind of bad input) and counts the scan as dropped.
   void dropScan(const sensor_msgs::PointCloud2& cloud, const std::string& problem,
                 const std::string& detail = "") {
     count("dropped scans");
+    warnPerProblem("cloud", cloud.header.stamp, problem, detail);
+  }
+
+  /// "dropping <what> at <stamp>: <problem>[: <detail>]", once per 5 s for each problem (one
+  /// throttle per call site would hide all but the first kind of bad input).
+  void warnPerProblem(const char* what, const ros::Time& stamp, const std::string& problem,
+                      const std::string& detail) {
     const ros::WallTime now = ros::WallTime::now();
     std::lock_guard<std::mutex> lock(warned_mutex_);  // called with and without mutex_
-    auto& last = last_warned_[problem];
+    auto& last = last_warned_[std::string(what) + problem];
     if (!last.isZero() && (now - last).toSec() < 5.0) return;
     last = now;
-    NODELET_WARN("dropping cloud at %.3f: %s%s%s", cloud.header.stamp.toSec(), problem.c_str(),
+    NODELET_WARN("dropping %s at %.3f: %s%s%s", what, stamp.toSec(), problem.c_str(),
                  detail.empty() ? "" : ": ", detail.c_str());
   }
 

@@ -15,16 +15,16 @@ ScanPlacement::ScanPlacement(const ros_params::PreprocessorSettings& settings,
       odometry_topic_(std::move(odometry_topic)),
       odom_tolerance_s_(settings.core.odom_tolerance_s) {}
 
-std::optional<std::string> ScanPlacement::addOdometry(const nav_msgs::Odometry& msg) {
+std::optional<ScanPlacement::Refusal> ScanPlacement::addOdometry(const nav_msgs::Odometry& msg) {
   if (msg.header.frame_id != odom_frame_ || msg.child_frame_id != base_frame_) {
-    return "in frames '" + msg.header.frame_id + "' -> '" + msg.child_frame_id + "': expected '" +
-           odom_frame_ + "' -> '" + base_frame_ + "'";
+    return Refusal{"in other frames", "'" + msg.header.frame_id + "' -> '" + msg.child_frame_id +
+                                          "', expected '" + odom_frame_ + "' -> '" + base_frame_ +
+                                          "'"};
   }
   const auto pose = conversions::toPose(msg.pose.pose);
-  const std::string at = "at " + std::to_string(msg.header.stamp.toSec());
-  if (!pose) return at + ": pose is not finite";
+  if (!pose) return Refusal{"pose is not finite", ""};
   if (!odometry_.add(conversions::toStamp(msg.header.stamp), *pose)) {
-    return at + ": stamp not after the previous one";
+    return Refusal{"stamp not after the previous one", ""};
   }
   return std::nullopt;
 }

@@ -51,12 +51,14 @@ TEST(ScanPlacement, FromOdometryAndTheSensorMount) {
   EXPECT_FALSE(placement.addOdometry(odometry(1.1, 1.0)));
   const auto wrong = placement.addOdometry(odometry(3.0, 2.0, "other/odom"));
   ASSERT_TRUE(wrong);
-  EXPECT_NE(wrong->find("in frames 'other/odom' -> 'r/base_link'"), std::string::npos) << *wrong;
+  EXPECT_EQ(wrong->problem, "in other frames");
+  EXPECT_EQ(wrong->detail, "'other/odom' -> 'r/base_link', expected 'r/odom' -> 'r/base_link'");
   const auto back = placement.addOdometry(odometry(1.05, 2.0));
   ASSERT_TRUE(back);
-  EXPECT_NE(back->find("stamp not after the previous one"), std::string::npos) << *back;
-  auto not_finite = odometry(3.0, std::nan(""));
-  ASSERT_TRUE(placement.addOdometry(not_finite));
+  EXPECT_EQ(back->problem, "stamp not after the previous one");
+  const auto not_finite = placement.addOdometry(odometry(3.0, std::nan("")));
+  ASSERT_TRUE(not_finite);
+  EXPECT_EQ(not_finite->problem, "pose is not finite");
 
   // Odometry covers the stamp, but the mount is not on tf yet.
   EXPECT_TRUE(placement.placeable("r/base_link", ros::Time(1.05)));

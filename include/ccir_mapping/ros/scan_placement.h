@@ -27,9 +27,14 @@ class ScanPlacement {
   /// The buffer a tf2_ros::TransformListener fills.
   tf2_ros::Buffer& tf() { return tf_; }
 
-  /// Keeps the odometry for placing scans; otherwise says why it was refused ("in frames ...",
-  /// "at <stamp>: pose is not finite", "at <stamp>: stamp not after the previous one").
-  std::optional<std::string> addOdometry(const nav_msgs::Odometry& msg);
+  /// Why odometry was refused: one of a few fixed problems, and what was wrong.
+  struct Refusal {
+    std::string problem;
+    std::string detail;
+  };
+  /// Keeps the odometry for placing scans; otherwise says why it was refused (frames other than
+  /// odom_frame -> base_frame, a pose not finite, a stamp not after the previous one).
+  std::optional<Refusal> addOdometry(const nav_msgs::Odometry& msg);
 
   /// True once what places a scan of `sensor_frame` at `stamp` has arrived (tf at its stamp, or
   /// odometry at or after it and the mount); otherwise false, saying why in `why` when given.
