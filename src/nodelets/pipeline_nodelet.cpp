@@ -1,5 +1,6 @@
 #include "pipeline_nodelet.h"
 
+#include <cstdio>
 #include <sstream>
 
 namespace ccir_mapping {
@@ -45,6 +46,34 @@ void PipelineNodelet::failConfiguration(const std::string& error) {
   NODELET_FATAL("%s; this nodelet stays inert", error.c_str());
   std::lock_guard<std::mutex> lock(status_mutex_);
   config_errors_.push_back(error);
+}
+
+void PipelineNodelet::warnPerKind(const std::string& kind, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  warnVPerKind(kind, format, args);
+  va_end(args);
+}
+
+void PipelineNodelet::drop(const std::string& flow, const char* format, ...) {
+  count("dropped " + flow);
+  va_list args;
+  va_start(args, format);
+  warnVPerKind(flow + "\n" + format, format, args);
+  va_end(args);
+}
+
+void PipelineNodelet::warnVPerKind(const std::string& kind, const char* format, va_list args) {
+  const ros::WallTime now = ros::WallTime::now();
+  {
+    std::lock_guard<std::mutex> lock(warned_mutex_);
+    ros::WallTime& last = last_warned_[kind];
+    if (!last.isZero() && (now - last).toSec() < 5.0) return;
+    last = now;
+  }
+  char text[1024];
+  std::vsnprintf(text, sizeof(text), format, args);
+  NODELET_WARN("%s", text);
 }
 
 void PipelineNodelet::count(const std::string& flow, std::uint64_t bytes) {

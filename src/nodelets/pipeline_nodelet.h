@@ -3,24 +3,33 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdarg>
 #include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <boost/function.hpp>
 
 #include "ccir_mapping/core/common/cpu_time.h"
 #include "ccir_mapping/core/common/mission_clock.h"
 #include "ccir_mapping/core/common/periodic_schedule.h"
 #include "ccir_mapping/ros/param_reader.h"
+#include "ccir_mapping/ros/reconfigure_table.h"
 
 namespace ccir_mapping {
 
+/// Every callback of a nodelet (subscriptions, timers, dynamic_reconfigure, diagnostics) runs on
+/// its single-threaded queue (getNodeHandle, getPrivateNodeHandle), one at a time: state only
+/// those callbacks touch needs no lock. Threads of a nodelet's own (a worker, a rebuild, the
+/// bridge's sockets) do.
 class PipelineNodelet : public nodelet::Nodelet {
  public:
   ~PipelineNodelet() override;
@@ -36,25 +45,105 @@ class PipelineNodelet : public nodelet::Nodelet {
     return reportSettings(reader, settings.frames.robot_name);
   }
 
-  /// Loads another nodelet's settings of this robot (its private namespace `name` beside this
-  /// one's, e.g. the Broker reads the Bridge's peers); false, leaving the defaults, when they
-  /// do not validate (that nodelet reports why).
+  /// Another nodelet's settings of this robot (in its private namespace `name` beside this
+  /// one's, e.g. the Broker reads the Bridge's peers); the defaults, with a warning, when they do
+  /// not validate (that nodelet reports why).
   template <class Settings>
-  bool loadSiblingSettings(const std::string& name, Settings& settings) {
+  Settings siblingSettings(const std::string& name) {
     const std::string ns = getNodeHandle().resolveName(name);
     XmlRpc::XmlRpcValue values;
     ros::param::get(ns, values);
     ros_params::ParamReader reader(values, ns);
-    Settings loaded;
-    load(reader, loaded);
-    if (!reader.errors().empty()) return false;
-    settings = loaded;
-    return true;
+    Settings settings;
+    load(reader, settings);
+    if (reader.errors().empty()) return settings;
+    NODELET_WARN("the parameters in %s are invalid (its nodelet says why): using defaults",
+                 ns.c_str());
+    return Settings{};
   }
 
   /// A configuration error found after loadSettings (e.g. a file a parameter names): logs it as
   /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert.
   void failConfiguration(const std::string& error);
+
+  /// Subscribes `callback` to `topic` for the nodelet's lifetime, counting each message as the
+  /// flow "in <topic>". The callback takes the message (const M&) or, to pass it on without a
+  /// copy, its pointer (const M::ConstPtr&).
+  template <class M, class F>
+  void subscribe(const std::string& topic, int queue_size, F callback) {
+    using Ptr = boost::shared_ptr<M const>;
+    const boost::function<void(const Ptr&)> counted = [this, flow = "in " + topic,
+                                                       callback](const Ptr& msg) {
+      count(flow);
+      if constexpr (std::is_invocable_v<F, const Ptr&>) {
+        callback(msg);
+      } else {
+        callback(*msg);
+      }
+    };
+    subscribers_.push_back(getNodeHandle().subscribe<M>(topic, queue_size, counted));
+  }
+  /// The same for a member function of the nodelet.
+  template <class M, class N>
+  void subscribe(const std::string& topic, int queue_size, void (N::*callback)(const M&)) {
+    subscribe<M>(topic, queue_size, [self = static_cast<N*>(this), callback](const M& msg) {
+      (self->*callback)(msg);
+    });
+  }
+  template <class M, class N>
+  void subscribe(const std::string& topic, int queue_size,
+                 void (N::*callback)(const boost::shared_ptr<M const>&)) {
+    subscribe<M>(topic, queue_size,
+                 [self = static_cast<N*>(this), callback](const boost::shared_ptr<M const>& msg) {
+                   (self->*callback)(msg);
+                 });
+  }
+
+  /// Advertises `topic` for publish(); call in onInit only.
+  template <class M>
+  void advertise(const std::string& topic, int queue_size, bool latch = false) {
+    publishers_[topic] = getNodeHandle().advertise<M>(topic, queue_size, latch);
+  }
+  /// Publishes on an advertised topic (zero-copy: never touch `msg` afterwards), counting it as
+  /// the flow "out <topic>" with its serialised size.
+  template <class M>
+  void publish(const std::string& topic, const boost::shared_ptr<M>& msg) {
+    count("out " + topic, ros::serialization::serializationLength(*msg));
+    publishers_.at(topic).publish(msg);
+  }
+  /// Whether anyone listens on an advertised topic (outputs only worth making for a listener).
+  bool listened(const std::string& topic) const {
+    return publishers_.at(topic).getNumSubscribers() > 0;
+  }
+
+  /// Serves dynamic_reconfigure for the keys of `table`: a request is applied to a copy of
+  /// `params`, validated by the core and logged key by key; `params` then takes it and `apply`
+  /// hands it to the core stage. A refused request is logged and changes nothing.
+  template <class Config, class Params, class Apply>
+  void serveReconfigure(const ros_params::ReconfigureTable<Config, Params>& table, Params& params,
+                        Apply apply) {
+    auto server = std::make_shared<dynamic_reconfigure::Server<Config>>(reconfigure_mutex_,
+                                                                        getPrivateNodeHandle());
+    server->setCallback([this, &table, &params, apply](Config& config, uint32_t) {
+      const auto outcome = table.apply(config, params);
+      if (outcome.error) {
+        NODELET_ERROR("reconfigure rejected: %s", outcome.error->c_str());
+        return;
+      }
+      if (!outcome.changes.empty()) NODELET_INFO("reconfigured:%s", outcome.changes.c_str());
+      params = outcome.params;
+      apply(params);
+    });
+    reconfigure_server_ = std::move(server);
+  }
+
+  /// Logs a warning at most once per 5 s for each `kind` of problem: one throttle per call
+  /// site would hide every kind but the first that passes through it.
+  void warnPerKind(const std::string& kind, const char* format, ...)
+      __attribute__((format(printf, 3, 4)));
+  /// Counts a message dropped from `flow` ("dropped <flow>") and warns why, at most once per 5 s
+  /// for each flow and format.
+  void drop(const std::string& flow, const char* format, ...) __attribute__((format(printf, 3, 4)));
 
   /// Counts messages (and bytes) that passed through a named input or output.
   void count(const std::string& flow, std::uint64_t bytes = 0);
@@ -119,6 +208,14 @@ class PipelineNodelet : public nodelet::Nodelet {
   std::map<std::string, Flow> flows_;
   std::map<std::string, Cpu> cpu_;
   std::vector<ros::SteadyTimer> timers_;
+  std::vector<ros::Subscriber> subscribers_;
+  std::map<std::string, ros::Publisher> publishers_;  // by topic; written in onInit only
+  boost::recursive_mutex reconfigure_mutex_;
+  std::shared_ptr<void> reconfigure_server_;
+  void warnVPerKind(const std::string& kind, const char* format, va_list args);
+
+  std::mutex warned_mutex_;                           // guards last_warned_
+  std::map<std::string, ros::WallTime> last_warned_;  // by kind
   std::vector<std::string> config_errors_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::SteadyTimer diagnostics_timer_;

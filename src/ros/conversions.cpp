@@ -6,14 +6,32 @@
 #include <cstring>
 #include <string_view>
 
+#include <pcl/common/io.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointField.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 #include "ccir_mapping/core/transport/scan_codec.h"
+#include "ccir_mapping/ros/topic_routes.h"
 
 namespace ccir_mapping::conversions {
+
 namespace {
+
+/// A teammate's map frame, as its own robot names it.
+std::string peerMapFrame(const std::string& peer) { return peer + "/map"; }
+
+/// A message's parallel lists of keyframe ids and values as pairs; nullopt when their lengths
+/// differ.
+template <class T, class Values>
+std::optional<std::vector<std::pair<core::KeyframeId, T>>> perKeyframe(
+    const std::vector<std::uint64_t>& ids, const Values& values) {
+  if (ids.size() != values.size()) return std::nullopt;
+  std::vector<std::pair<core::KeyframeId, T>> pairs;
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    pairs.emplace_back(ids[i], static_cast<T>(values[i]));
+  return pairs;
+}
 
 template <class Quaternion>
 bool isUnitQuaternion(const Quaternion& q) {
@@ -126,6 +144,10 @@ bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out) 
   out->relative = *relative;
   out->covariance = toMatrix6(msg.covariance);
   out->odom_pose_from = toPose(msg.odom_pose_from);
+  out->match_score = msg.match_score;
+  out->fitness_m2 = msg.fitness_m2;
+  out->inliers = static_cast<int>(msg.inliers);
+  out->method = msg.method;
   return true;
 }
 
@@ -138,6 +160,10 @@ LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop) {
   msg.relative_pose = toPoseMsg(loop.relative);
   msg.covariance = toCovarianceMsg(loop.covariance);
   if (loop.odom_pose_from) msg.odom_pose_from = toPoseMsg(*loop.odom_pose_from);
+  msg.match_score = loop.match_score;
+  msg.fitness_m2 = loop.fitness_m2;
+  msg.inliers = static_cast<std::uint32_t>(std::max(0, loop.inliers));
+  msg.method = loop.method;
   return msg;
 }
 
@@ -178,7 +204,7 @@ TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
   msg.header.stamp = stamp;
   msg.header.frame_id = map_frame;
   msg.peer = estimate.peer;
-  msg.child_frame_id = estimate.peer + "/map";
+  msg.child_frame_id = peerMapFrame(estimate.peer);
   msg.valid = a.found;
   msg.transform = toTransformMsg(a.transform);
   msg.covariance = toCovarianceMsg(a.covariance);
@@ -187,6 +213,75 @@ TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
   msg.margin = a.runner_up_inliers > 0 ? double(a.inlier_count) / a.runner_up_inliers
                                        : double(a.inlier_count);
   return msg;
+}
+
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendSnapshot& snapshot,
+                                                      const std::string& map_frame,
+                                                      const std::string& odom_frame,
+                                                      const ros::Time& stamp) {
+  std::vector<geometry_msgs::TransformStamped> transforms = {
+      toTransformStampedMsg(stamp, map_frame, odom_frame, snapshot.mapFromOdom())};
+  for (const auto& estimate : snapshot.team) {
+    if (!estimate.alignment.found) continue;
+    transforms.push_back(toTransformStampedMsg(stamp, map_frame, peerMapFrame(estimate.peer),
+                                               estimate.alignment.transform));
+  }
+  return transforms;
+}
+
+std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg) {
+  return msg.valid ? toPose(msg.transform) : std::nullopt;
+}
+
+KeyframeUncertainty toKeyframeUncertaintyMsg(const std::string& robot,
+                                             const std_msgs::Header& header,
+                                             const std::vector<core::KeyframeId>& ids,
+                                             const std::vector<double>& variances_m2) {
+  KeyframeUncertainty msg;
+  msg.header = header;
+  msg.robot = robot;
+  msg.keyframe_ids.assign(ids.begin(), ids.end());
+  msg.position_variance_m2 = variances_m2;
+  return msg;
+}
+
+std::optional<std::vector<std::pair<core::KeyframeId, double>>> toVariances(
+    const KeyframeUncertainty& msg) {
+  return perKeyframe<double>(msg.keyframe_ids, msg.position_variance_m2);
+}
+
+KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header, const std::string& robot,
+                                       core::KeyframeId id, const std::string& vocabulary_hash,
+                                       const std::vector<std::uint32_t>& words,
+                                       std::size_t descriptor_count) {
+  KeyframeFeatures msg;
+  msg.header = header;
+  msg.robot = robot;
+  msg.keyframe_id = id;
+  msg.vocabulary_hash = vocabulary_hash;
+  msg.words = words;
+  msg.descriptor_count = static_cast<std::uint32_t>(descriptor_count);
+  return msg;
+}
+
+Correspondences toCorrespondencesMsg(const std::string& robot, const std::string& peer,
+                                     core::KeyframeId peer_keyframe, const ros::Time& stamp,
+                                     const std::vector<std::pair<core::KeyframeId, int>>& counts) {
+  Correspondences msg;
+  msg.header.stamp = stamp;
+  msg.robot = robot;
+  msg.peer = peer;
+  msg.peer_keyframe_id = peer_keyframe;
+  for (const auto& [keyframe, count] : counts) {
+    msg.keyframe_ids.push_back(keyframe);
+    msg.counts.push_back(static_cast<std::uint32_t>(count));
+  }
+  return msg;
+}
+
+std::optional<std::vector<std::pair<core::KeyframeId, int>>> toCorrespondenceCounts(
+    const Correspondences& msg) {
+  return perKeyframe<int>(msg.keyframe_ids, msg.counts);
 }
 
 void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
@@ -234,6 +329,16 @@ void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
     std::memcpy(out + 18, &p.time, 4);
     out += kPointStep;
   }
+}
+
+std::string missingVelodyneFields(const CloudFields& fields) {
+  std::string missing;
+  for (const auto& [present, name] :
+       {std::pair{fields.intensity, "intensity"}, std::pair{fields.ring, "ring"},
+        std::pair{fields.time, "time"}}) {
+    if (!present) missing += missing.empty() ? name : std::string(" ") + name;
+  }
+  return missing;
 }
 
 std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, CloudFields* fields) {
@@ -318,6 +423,23 @@ std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud
   return std::nullopt;
 }
 
+Keyframe toKeyframeMsg(const std_msgs::Header& header, const std::string& robot,
+                       const std::string& odom_frame, const core::Pose3& odom_pose,
+                       const core::preprocess::KeyframeSelector::Decision& decision,
+                       const pcl::PointCloud<pcl::PointXYZINormal>& cloud) {
+  Keyframe msg;
+  msg.header = header;
+  msg.robot = robot;
+  msg.id = decision.id;
+  msg.odom_frame = odom_frame;
+  msg.odom_pose = toPoseMsg(odom_pose);
+  msg.travelled_m = static_cast<float>(decision.travelled_m);
+  msg.rotated_rad = static_cast<float>(decision.rotated_rad);
+  pcl::toROSMsg(cloud, msg.cloud);
+  msg.cloud.header = header;
+  return msg;
+}
+
 std::optional<std::string> toScanPoints(const Keyframe& keyframe,
                                         pcl::PointCloud<pcl::PointXYZ>* points,
                                         core::Pose3* odom_pose) {
@@ -329,14 +451,20 @@ std::optional<std::string> toScanPoints(const Keyframe& keyframe,
   return std::nullopt;
 }
 
-std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out) {
+std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out,
+                                        pcl::PointCloud<pcl::PointXYZ>* xyz,
+                                        core::Pose3* odom_pose) {
   pcl::PointCloud<pcl::PointXYZINormal> cloud;
   if (auto error = toKeyframeCloud(keyframe.cloud, &cloud)) return error;
+  const auto pose = toPose(keyframe.odom_pose);
+  if (!pose) return "odom_pose is not finite";
   std::vector<core::transport::ScanPoint> points(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const auto& p = cloud[i];
     points[i] = {p.x, p.y, p.z, p.normal_x, p.normal_y, p.normal_z, p.intensity};
   }
+  if (xyz) pcl::copyPointCloud(cloud, *xyz);
+  if (odom_pose) *odom_pose = *pose;
   std::string error;
   auto encoded = core::transport::encodeScan(points, &error);
   if (!encoded) return error;
@@ -460,6 +588,83 @@ core::routing::LinkState toLinkState(const LinkStats& msg) {
   return state;
 }
 
+core::transport::TopicInfo toTopicInfo(const topic_tools::ShapeShifter& msg,
+                                       const core::transport::ForwardedTopic& forwarded,
+                                       const ros::M_string* connection_header) {
+  bool latched = false;
+  if (connection_header) {
+    const auto latching = connection_header->find("latching");
+    latched = latching != connection_header->end() && latching->second == "1";
+  }
+  core::transport::TopicInfo topic;
+  topic.name = topics::inboxOf(forwarded.topic);
+  topic.type = msg.getDataType();
+  topic.md5 = msg.getMD5Sum();
+  topic.definition = msg.getMessageDefinition();
+  topic.latched = latched;
+  topic.reliable = forwarded.reliable;
+  topic.compressed = forwarded.compress;
+  topic.policy = forwarded.policy;
+  return topic;
+}
+
+std::vector<std::uint8_t> toBytes(const topic_tools::ShapeShifter& msg) {
+  std::vector<std::uint8_t> bytes(msg.size());
+  ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  msg.write(stream);
+  return bytes;
+}
+
+topic_tools::ShapeShifter::ConstPtr toShapeShifter(const core::transport::InboxMessage& message,
+                                                   std::string* error) {
+  const core::transport::TopicInfo& topic = message.topic;
+  if (topic.type.find('/') == std::string::npos || topic.md5.size() != 32) {
+    *error = "type '" + topic.type + "', md5 '" + topic.md5 + "'";
+    return nullptr;
+  }
+  auto msg = boost::make_shared<topic_tools::ShapeShifter>();
+  msg->morph(topic.md5, topic.type, topic.definition, topic.latched ? "1" : "0");
+  // IStream takes a mutable pointer but only reads; ShapeShifter::read copies the bytes.
+  ros::serialization::IStream stream(const_cast<std::uint8_t*>(message.bytes.data()),
+                                     static_cast<std::uint32_t>(message.bytes.size()));
+  msg->read(stream);
+  return msg;
+}
+
+LinkStats toLinkStatsMsg(const core::transport::LinkReport& report, const std::string& robot,
+                         const core::transport::BridgeParams& params, const ros::Time& now,
+                         double send_rate_bytes_per_s) {
+  LinkStats msg;
+  msg.header.stamp = now;
+  msg.robot = robot;
+  msg.peer = report.peer;
+  msg.connected = report.connected;
+  msg.address = report.address;
+  msg.bytes_sent = report.sent.bytes_sent;
+  msg.bytes_received = report.received.bytes_received;
+  msg.messages_sent = report.sent.messages_sent;
+  msg.messages_received = report.received.messages_received;
+  msg.send_rate_bytes_per_s = send_rate_bytes_per_s;
+  msg.budget_bytes_per_s = params.budget_bytes_per_s;
+  msg.total_budget_bytes_per_s = params.total_budget_bytes_per_s;
+  msg.queued_control = static_cast<std::uint32_t>(report.queued_control);
+  msg.queued_bulk = static_cast<std::uint32_t>(report.queued_bulk);
+  msg.queued_control_bytes = report.queued_control_bytes;
+  msg.queued_bulk_bytes = report.queued_bulk_bytes;
+  msg.available_tokens_bytes = report.available_tokens_bytes;
+  for (const auto& [reason, n] : report.drops) {
+    if (n == 0) continue;
+    msg.drop_reasons.push_back(reason);
+    msg.drop_counts.push_back(n);
+  }
+  if (report.silent_s >= 0 && now.toSec() >= report.silent_s) {
+    msg.last_seen = now - ros::Duration(report.silent_s);
+  }
+  return msg;
+}
+
+namespace {
+
 PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerCounters& c) {
   PeerRouting msg;
   msg.peer = peer;
@@ -481,6 +686,44 @@ PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerC
   for (const auto& [reason, count] : c.refused) {
     msg.refused_reasons.push_back(reason);
     msg.refused_counts.push_back(count);
+  }
+  return msg;
+}
+
+}  // namespace
+
+MapStats toMapStatsMsg(const core::information::MapStage::Stats& stats,
+                       const core::information::MapperParams& params, const std::string& robot,
+                       const std_msgs::Header& header) {
+  MapStats msg;
+  msg.header = header;
+  msg.robot = robot;
+  msg.resolution_m = params.resolution_m;
+  msg.entropy_bits = stats.entropy_bits;
+  msg.known_volume_m3 = stats.known_volume_m3;
+  msg.box_min = tf2::toMsg(params.entropyBoxMin());
+  msg.box_max = tf2::toMsg(params.entropyBoxMax());
+  msg.keyframes = static_cast<std::uint32_t>(stats.keyframes);
+  msg.peer_scans = static_cast<std::uint32_t>(stats.peer_scans);
+  msg.pending_peer_scans = static_cast<std::uint32_t>(stats.pending_peer_scans);
+  msg.rebuilds = stats.rebuilds;
+  return msg;
+}
+
+BrokerStats toBrokerStatsMsg(const core::routing::BrokerReport& report, const ros::Time& stamp) {
+  BrokerStats msg;
+  msg.header.stamp = stamp;
+  msg.robot = report.robot;
+  msg.mode = core::routing::toString(report.mode);
+  msg.keyframes = report.keyframes;
+  msg.features_sent = report.features_sent;
+  msg.kept_scans = static_cast<std::uint32_t>(report.kept_scans);
+  msg.scans_sent = report.scans_sent;
+  msg.scans_received = report.scans_received;
+  for (const auto& [peer, counters] : report.peers) {
+    msg.scan_bytes_sent += counters.scan_bytes_sent;
+    msg.scan_bytes_received += counters.scan_bytes_received;
+    msg.peers.push_back(toPeerRoutingMsg(peer, counters));
   }
   return msg;
 }

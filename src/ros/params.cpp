@@ -1,10 +1,12 @@
 #include "ccir_mapping/ros/params.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <set>
 #include <type_traits>
 
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/ros/topics.h"
 
 namespace ccir_mapping::ros_params {
 namespace {
@@ -186,6 +188,13 @@ void load(ParamReader& reader, MapperSettings& config) {
   reader.read("map_path", config.map_path);
   reader.read("save_on_shutdown", config.save_on_shutdown);
   reader.addErrors(p.validate());
+  if (config.map_path.empty()) {
+    const char* ros_home = std::getenv("ROS_HOME");
+    const char* home = std::getenv("HOME");
+    config.map_path =
+        (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" +
+        config.frames.robot_name + "_map.bt";
+  }
 }
 
 void load(ParamReader& reader, BrokerSettings& config) {
@@ -232,8 +241,9 @@ void load(ParamReader& reader, BridgeSettings& config) {
   // Without a `topics` list, every outbox topic of the protocol is forwarded.
   if (!reader.raw("topics")) {
     using core::transport::Priority;
-    const char* names[] = {"outbox/features", "outbox/offers",        "outbox/requests",
-                           "outbox/receipts", "outbox/loop_closures", "outbox/scans"};
+    const char* names[] = {topics::kOutboxFeatures,     topics::kOutboxOffers,
+                           topics::kOutboxRequests,     topics::kOutboxReceipts,
+                           topics::kOutboxLoopClosures, topics::kOutboxScans};
     for (const char* name : names) p.topics.emplace_back().topic = name;
     p.topics.back().policy.priority = Priority::kBulk;
   }

@@ -62,4 +62,36 @@ std::optional<core::Pose3> ScanPlacement::sensorPose(const std::string& sensor_f
   }
 }
 
+std::vector<ScanPlacement::Placement> ScanPlacement::wait(
+    const sensor_msgs::PointCloud2::ConstPtr& cloud) {
+  std::vector<Placement> placements;
+  if (const auto pushed_out = waiting_.push(cloud)) {
+    placements.push_back(givenUp(*pushed_out, "waited too long"));
+  }
+  for (auto& placement : release()) placements.push_back(std::move(placement));
+  return placements;
+}
+
+std::vector<ScanPlacement::Placement> ScanPlacement::release() {
+  std::vector<Placement> placements;
+  waiting_.drain(
+      [this](const auto& cloud) { return placeable(cloud->header.frame_id, cloud->header.stamp); },
+      [&](const auto& cloud) {
+        std::string why;
+        const auto pose = sensorPose(cloud->header.frame_id, cloud->header.stamp, &why);
+        placements.push_back({cloud, pose, pose ? "" : "cannot place it: " + why});
+      },
+      [&](const auto& cloud) {
+        placements.push_back(givenUp(cloud, "a later scan was placed first"));
+      });
+  return placements;
+}
+
+ScanPlacement::Placement ScanPlacement::givenUp(const sensor_msgs::PointCloud2::ConstPtr& cloud,
+                                                const char* context) const {
+  std::string why;
+  placeable(cloud->header.frame_id, cloud->header.stamp, &why);
+  return {cloud, std::nullopt, std::string("cannot place it (") + context + "): " + why};
+}
+
 }  // namespace ccir_mapping

@@ -200,7 +200,7 @@ int main(int argc, char** argv) {
   }
   core::routing::CcirBroker requester("robot_b", {"robot_a"}, core::routing::BrokerParams{});
   requester.setLink("robot_a", link);
-  requester.setTransformKnown("robot_a", true);
+  requester.setTeamTransform("robot_a", core::Pose3::Identity());
   core::routing::Offer offer{"robot_a", "robot_b", 1, {}};
   for (int i = 0; i < 10; ++i) {
     core::routing::OfferEntry entry;
@@ -213,10 +213,7 @@ int main(int argc, char** argv) {
   requester.onOffer(offer);
   start = std::chrono::steady_clock::now();
   const auto requests = requester.chooseRequests(
-      [&](const std::string&, const core::routing::OfferEntry& e) {
-        return map.simulatedCsqmi(e.pose);
-      },
-      0.0);
+      [&](const core::Pose3& sensor_pose) { return map.simulatedCsqmi(sensor_pose); }, 0.0);
   const double requests_ms = millisecondsSince(start);
 
   const double n = candidates;

@@ -9,7 +9,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/preprocess/velodyne_pcap_reader.h"
+#include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
 #include "ccir_mapping/ros/conversions.h"
 
 namespace po = boost::program_options;
@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    ccir_mapping::core::preprocess::VelodynePcapReader reader(
+    ccir_mapping::core::velodyne::VelodynePcapReader reader(
         pcap, model, ccir_mapping::core::fromSeconds(start_time_s), min_range_m);
     rosbag::Bag bag(out, rosbag::bagmode::Write);
     std::size_t scans = 0;

@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "ccir_mapping/core/information/scan_ranker.h"
+#include "ccir_mapping/core/routing/broker_stage.h"
 #include "ccir_mapping/core/routing/ccir_broker.h"
 
 namespace ccir_mapping::core::routing {
@@ -179,7 +180,7 @@ TEST_F(Provider, WithAnUnknownTransformHighCorrespondenceScansRankFirst) {
   EXPECT_GT(offer->scans[0].utility, offer->scans[1].utility);
   // Once the transform is known, map information weighs fully (k = 1): B's 10 blocks and
   // c_k 2 beat C's 5 blocks and c_k 3.
-  a.setTransformKnown("robot_b", true);
+  a.setTeamTransform("robot_b", Pose3::Identity());
   a.setLink("robot_b", link());
   EXPECT_EQ(ids(*a.makeOffer("robot_b", 0.0)).front(), 2u);
 }
@@ -192,7 +193,7 @@ TEST_F(Provider, PoseUncertaintyWeighsTheLoopClosureUtilityOnceTheTransformIsKno
   b.setUncertainty(0, 0.01);
   b.setUncertainty(1, 0.50);
   b.setUncertainty(2, 0.20);
-  b.setTransformKnown("robot_b", true);
+  b.setTeamTransform("robot_b", Pose3::Identity());
   b.setLink("robot_b", link());
   EXPECT_EQ(ids(*b.makeOffer("robot_b", 0.0)), (std::vector<KeyframeId>{1, 2, 0}));
 }
@@ -309,7 +310,7 @@ TEST_F(Provider, ARequestForAnEvictedScanIsRefused) {
   ASSERT_EQ(ids(*offer), (std::vector<KeyframeId>{0}));
   EXPECT_EQ(b.addKeyframe(2, Stamp(2), Pose3::Identity(), kScanBytes, kPlaceC()),
             (std::vector<KeyframeId>{0}));
-  EXPECT_EQ(b.keptScans(), 2u);
+  EXPECT_EQ(b.report().kept_scans, 2u);
   const auto outcome = b.onRequest({"robot_b", "robot_a", offer->sequence, {0}}, 0.0);
   EXPECT_TRUE(outcome.send.empty());
   EXPECT_EQ(outcome.refused.at("evicted"), 1);
@@ -374,7 +375,7 @@ struct Requester : ::testing::Test {
     }
     return o;
   }
-  static double noInformation(const std::string&, const OfferEntry&) { return 0.0; }
+  static double noInformation(const Pose3&) { return 0.0; }
 };
 
 TEST_F(Requester, RequestsAreASubsetOfTheOffersWithinWhatTheLinksCarry) {
@@ -396,13 +397,15 @@ TEST_F(Requester, RequestsAreASubsetOfTheOffersWithinWhatTheLinksCarry) {
 TEST_F(Requester, AKnownTransformLetsTheOwnMapsInformationChoose) {
   CcirBroker r("robot_b", {"robot_a"}, params(0.5));
   r.setLink("robot_a", link(100000.0));  // two scans a period
-  r.setTransformKnown("robot_a", true);
+  // robot_a's map frame is 100 m along x in robot_b's: offered scan k (at x = k in robot_a's
+  // frame) is seen from x = 100 + k in the own map.
+  r.setTeamTransform("robot_a", Pose3(Eigen::Translation3d(100.0, 0.0, 0.0)));
   ASSERT_TRUE(r.onOffer(offer("robot_a", {{0, 5}, {1, 5}, {2, 5}})));
   // Equal c_k: the scan whose simulated view the own map knows least wins.
   const auto requests = r.chooseRequests(
-      [](const std::string& provider, const OfferEntry& e) {
-        EXPECT_EQ(provider, "robot_a");
-        return e.id == 2 ? 300.0 : e.id == 0 ? 100.0 : 10.0;
+      [](const Pose3& sensor_pose) {
+        const double x = sensor_pose.translation().x();
+        return x == 102.0 ? 300.0 : x == 100.0 ? 100.0 : 10.0;
       },
       0.0);
   ASSERT_EQ(requests.size(), 1u);
@@ -474,6 +477,120 @@ TEST(CcirScenario, TwoRobotsExchangeEachPlaceOnceUnderTheBudget) {
   EXPECT_EQ(delivered, (std::vector<KeyframeId>{0, 2, 4}));
   EXPECT_EQ(a.counters().at("robot_b").receipts_received, 3u);
   EXPECT_EQ(b.counters().at("robot_a").scan_bytes_received, 3 * kScanBytes);
+  const BrokerReport sent = a.report();
+  EXPECT_EQ(sent.robot, "robot_a");
+  EXPECT_EQ(sent.mode, RoutingMode::kCcir);
+  EXPECT_EQ(sent.keyframes, walk.size());
+  EXPECT_EQ(sent.kept_scans, walk.size());
+  EXPECT_EQ(sent.scans_sent, 3u);
+  EXPECT_EQ(sent.scans_received, 0u);
+  EXPECT_EQ(sent.peers.at("robot_b").scans_sent, 3u);
+  EXPECT_EQ(b.report().scans_received, 3u);
+}
+
+TEST(CcirScenario, APeriodOffersThenRequestsThenAcknowledges) {
+  CcirBroker a("robot_a", {"robot_b"}, params());
+  CcirBroker b("robot_b", {"robot_a"}, params());
+  a.addKeyframe(0, Stamp(0), Pose3::Identity(), kScanBytes, kPlaceA());
+  a.setLink("robot_b", link());
+  b.setLink("robot_a", link());
+  const auto first = a.runPeriod(Requester::noInformation, 0.0);
+  ASSERT_EQ(first.offers.size(), 1u);
+  EXPECT_EQ(first.offers[0].requester, "robot_b");
+  EXPECT_TRUE(first.requests.empty());
+  EXPECT_TRUE(first.receipts.empty());
+  ASSERT_TRUE(b.onOffer(first.offers[0]));
+  const auto asked = b.runPeriod(Requester::noInformation, 0.0);
+  EXPECT_TRUE(asked.offers.empty()) << "b has no keyframe";
+  ASSERT_EQ(asked.requests.size(), 1u);
+  EXPECT_EQ(a.onRequest(asked.requests[0], 0.0).send, (std::vector<KeyframeId>{0}));
+  ASSERT_TRUE(b.onScanReceived("robot_a", 0, kScanBytes));
+  const auto acknowledged = b.runPeriod(Requester::noInformation, 1.0);
+  EXPECT_TRUE(acknowledged.requests.empty());
+  ASSERT_EQ(acknowledged.receipts.size(), 1u);
+  EXPECT_EQ(acknowledged.receipts[0].ids, (std::vector<KeyframeId>{0}));
+}
+
+/// A wall of points 5 m ahead of the sensor.
+pcl::PointCloud<pcl::PointXYZ> wallAhead() {
+  pcl::PointCloud<pcl::PointXYZ> points;
+  for (int i = -10; i <= 10; ++i) {
+    for (int k = -3; k <= 3; ++k) points.push_back({5.0F, 0.2F * float(i), 0.2F * float(k)});
+  }
+  return points;
+}
+
+TEST(BrokerStage, KeepsTheWireFormWhileCcirKeepsItsKeyframe) {
+  BrokerParams p;
+  p.mode = RoutingMode::kFixedRate;
+  p.fixed_rate_every_n = 2;
+  p.max_kept_scans = 2;
+  BrokerStage<std::string> stage("robot_a", {"robot_b"}, p, information::MapperParams{});
+  std::vector<std::string> to_all;
+  for (KeyframeId id = 0; id < 4; ++id) {
+    const auto out = stage.addKeyframe(id, Stamp(id), Pose3::Identity(), wallAhead(),
+                                       "scan " + std::to_string(id), kScanBytes);
+    for (const auto& [peer, scan] : out.scans) {
+      EXPECT_EQ(peer, "") << "to every teammate";
+      to_all.push_back(scan);
+    }
+    EXPECT_TRUE(out.offers.empty() && out.refused.empty());
+  }
+  EXPECT_EQ(to_all, (std::vector<std::string>{"scan 0", "scan 2"}));
+  EXPECT_EQ(stage.keptScans(), 2u) << "the oldest go with their keyframes";
+  EXPECT_EQ(stage.ccir().report().kept_scans, 2u);
+}
+
+TEST(BrokerStage, EachStepSaysWhatToSendAndWhatItRefused) {
+  using Stage = BrokerStage<std::string>;
+  Stage a("robot_a", {"robot_b"}, params(), information::MapperParams{});
+  Stage b("robot_b", {"robot_a"}, params(), information::MapperParams{});
+  const auto kept = a.addKeyframe(0, Stamp(0), Pose3::Identity(), wallAhead(), "scan 0", 1000);
+  EXPECT_TRUE(kept.scans.empty()) << "ccir sends nothing unasked";
+  a.addKeyframe(1, Stamp(1), Pose3(Eigen::Translation3d(0.0, 20.0, 0.0)), wallAhead(), "scan 1",
+                1000);
+  a.ccir().setLink("robot_b", link());
+  b.ccir().setLink("robot_a", link());
+
+  // No Mapper registered a map of robot_b here: CSQMI counts nothing.
+  const Stage::Output offered = a.runPeriod(0.0);
+  ASSERT_EQ(offered.offers.size(), 1u);
+  ASSERT_EQ(offered.offers[0].scans.size(), 2u) << "both show new places";
+  EXPECT_TRUE(b.onOffer(offered.offers[0]).refused.empty());
+  const auto malformed = b.onOffer(offered.offers[0], std::string("pose not finite"));
+  ASSERT_EQ(malformed.refused.size(), 1u);
+  EXPECT_EQ(malformed.refused[0].text, "refusing an offer from 'robot_a': pose not finite");
+  EXPECT_EQ(b.ccir().counters().at("robot_a").refused.at("malformed_offer"), 1u);
+
+  const Stage::Output asked = b.runPeriod(0.0);
+  ASSERT_EQ(asked.requests.size(), 1u);
+  EXPECT_EQ(asked.requests[0].provider, "robot_a");
+  const Request first{"robot_b", "robot_a", offered.offers[0].sequence, {0}};
+  const Stage::Output sent = a.onRequest(first, 0.0);
+  ASSERT_EQ(sent.scans.size(), 1u);
+  EXPECT_EQ(sent.scans[0], std::make_pair(std::string("robot_b"), std::string("scan 0")));
+  EXPECT_TRUE(sent.refused.empty());
+  const Stage::Output again = a.onRequest(first, 0.0);
+  EXPECT_TRUE(again.scans.empty());
+  ASSERT_EQ(again.refused.size(), 1u);
+  EXPECT_EQ(again.refused[0].kind, "request already_sent");
+  EXPECT_EQ(again.refused[0].text, "refusing 1 scan(s) robot_b asked for: already_sent");
+
+  EXPECT_TRUE(b.onScan("robot_a", 0, 1000).refused.empty());
+  const auto twice = b.onScan("robot_a", 0, 1000);
+  ASSERT_EQ(twice.refused.size(), 1u);
+  EXPECT_EQ(twice.refused[0].text,
+            "dropping scan 0 of 'robot_a': received before, or not a "
+            "teammate's");
+  EXPECT_EQ(b.onScan("robot_a", 1, 1000, std::string("truncated")).refused[0].text,
+            "dropping scan 1 of 'robot_a': truncated");
+  EXPECT_EQ(b.ccir().counters().at("robot_a").refused.at("undecodable_scan"), 1u);
+
+  const Stage::Output acknowledged = b.runPeriod(1.0);
+  ASSERT_EQ(acknowledged.receipts.size(), 1u);
+  EXPECT_TRUE(a.onReceipt(acknowledged.receipts[0]).refused.empty());
+  EXPECT_EQ(a.onReceipt({"robot_x", "robot_a", {0}}).refused[0].text,
+            "refusing a receipt from 'robot_x' for 'robot_a'");
 }
 
 }  // namespace

@@ -4,14 +4,18 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <limits>
+#include <mutex>
 #include <random>
 
 #include <pcl/common/transforms.h>
 
 #include "ccir_mapping/core/information/csqmi.h"
 #include "ccir_mapping/core/information/keyframe_map.h"
+#include "ccir_mapping/core/information/map_stage.h"
 #include "ccir_mapping/core/information/occupancy_map.h"
 #include "ccir_mapping/core/information/scan_ranker.h"
 
@@ -430,6 +434,68 @@ TEST(KeyframeMap, FollowsOptimizedPosesAndPlacesTeammatesOnceTheirFrameIsKnown) 
   map.setTeamTransform("robot_b", at(11, 0, 90));
   EXPECT_TRUE(map.rebuildDue());
   EXPECT_EQ(map.placeAll().size(), 5U);
+}
+
+TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool rebuilding = false, go_on = false;
+  std::vector<std::size_t> rebuilt;
+  MapStage::Hooks hooks;
+  hooks.run = [&](const char* stage, const std::function<void()>& work) {
+    if (std::string(stage) == "rebuild") {  // holds the rebuild until the test lets it go
+      std::unique_lock<std::mutex> lock(mutex);
+      rebuilding = true;
+      changed.notify_all();
+      changed.wait(lock, [&] { return go_on; });
+    }
+    work();
+  };
+  hooks.rebuilt = [&](std::size_t scans, double) {
+    std::lock_guard<std::mutex> lock(mutex);
+    rebuilt.push_back(scans);
+    changed.notify_all();
+  };
+  MapStage stage(params(), hooks);
+  KeyframeMap expected(params());  // the same inputs, placed without a stage
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  for (Stamp stamp : {1, 2}) {
+    stage.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
+    expected.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
+  }
+  EXPECT_FALSE(stage.rebuildIfDue()) << "nothing moved";
+  stage.setOptimizedPoses({{2, at(4, 0.5, 2)}});
+  expected.setOptimizedPoses({{2, at(4, 0.5, 2)}});
+  ASSERT_TRUE(stage.rebuildIfDue());
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(60), [&] { return rebuilding; }));
+  }
+  EXPECT_FALSE(stage.rebuildIfDue()) << "one rebuild at a time";
+  stage.addOwn(3, cloud, at(6, 0));  // placed while the rebuild runs
+  expected.addOwn(3, cloud, at(6, 0));
+  EXPECT_TRUE(stage.addPeer("robot_b", 7, cloud, at(1, 1)));
+  EXPECT_FALSE(stage.addPeer("robot_b", 7, cloud, at(1, 1))) << "held already";
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    go_on = true;
+    changed.notify_all();
+  }
+  stage.waitForRebuild();
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(60), [&] { return !rebuilt.empty(); }));
+    EXPECT_EQ(rebuilt, (std::vector<std::size_t>{2}));
+  }
+  const auto stats = stage.stats();
+  EXPECT_EQ(stats.rebuilds, 1U);
+  EXPECT_EQ(stats.keyframes, 3U);
+  EXPECT_EQ(stats.pending_peer_scans, 1U);
+  OccupancyMap direct(params());
+  for (const auto& scan : expected.placeAll()) direct.insert(*scan.cloud, scan.map_from_sensor);
+  EXPECT_NEAR(stats.entropy_bits, direct.boxEntropyBits(), 1e-6)
+      << "the rebuilt map holds all three keyframes at their current poses";
+  EXPECT_NEAR(stats.known_volume_m3, direct.boxKnownVolumeM3(), 1e-9);
 }
 
 TEST(ScanRanker, CoarsenedGainsSumPerBlock) {

@@ -55,15 +55,25 @@ Pose3 at(double x) {
 
 TEST(KeyframeStage, ArrivalsMustAdvanceAndGapsAreCounted) {
   KeyframeStage stage{PreprocessorParams{}};
-  std::uint64_t missing = 7;
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(stage.arrive(i * kPeriod, &missing));
-    EXPECT_EQ(missing, 0U);
+    const auto arrival = stage.arrive(i * kPeriod);
+    ASSERT_TRUE(arrival.accepted);
+    EXPECT_EQ(arrival.missing_before, 0U);
+    EXPECT_TRUE(arrival.notices.empty());
   }
-  EXPECT_FALSE(stage.arrive(4 * kPeriod, &missing)) << "a repeated stamp";
-  EXPECT_FALSE(stage.arrive(2 * kPeriod, &missing)) << "a stamp going back";
-  ASSERT_TRUE(stage.arrive(8 * kPeriod, &missing));  // 5, 6 and 7 lost
-  EXPECT_EQ(missing, 3U);
+  const auto repeated = stage.arrive(4 * kPeriod);
+  EXPECT_FALSE(repeated.accepted) << "a repeated stamp";
+  ASSERT_EQ(repeated.notices.size(), 1U);
+  EXPECT_EQ(repeated.notices[0].text,
+            "stamp not after the previous scan (a bag replayed again? restart the pipeline)");
+  EXPECT_FALSE(stage.arrive(2 * kPeriod).accepted) << "a stamp going back";
+  const auto after_gap = stage.arrive(8 * kPeriod);  // 5, 6 and 7 lost
+  ASSERT_TRUE(after_gap.accepted);
+  EXPECT_EQ(after_gap.missing_before, 3U);
+  ASSERT_EQ(after_gap.notices.size(), 1U);
+  EXPECT_EQ(after_gap.notices[0].kind, "missing scans");
+  EXPECT_EQ(after_gap.notices[0].text.rfind("3 scan(s) missing before 0.800 (3 so far): ", 0), 0U)
+      << after_gap.notices[0].text;
   EXPECT_EQ(stage.totals().missed_scans, 3U);
 }
 
@@ -77,7 +87,11 @@ TEST(KeyframeStage, MakesKeyframesFromTravelAndNeverFromTooFewPoints) {
 
   auto result = stage.process(0, at(0.0), sparse);
   EXPECT_EQ(result.outcome, Outcome::kTooFewPoints);
+  EXPECT_TRUE(result.dropped());
   EXPECT_EQ(result.usable_points, 40U);
+  ASSERT_EQ(result.notices.size(), 1U);
+  EXPECT_EQ(result.notices[0].text,
+            "only 40 of 40 points are finite and within [0.5, 100] m (min_points 50)");
 
   result = stage.process(kPeriod, at(0.0), scan);
   ASSERT_EQ(result.outcome, Outcome::kKeyframe);
@@ -86,17 +100,65 @@ TEST(KeyframeStage, MakesKeyframesFromTravelAndNeverFromTooFewPoints) {
   EXPECT_GT(result.cloud->size(), 1000U);
   EXPECT_EQ(result.stats.points_out, result.cloud->size());
 
-  EXPECT_EQ(stage.process(2 * kPeriod, at(0.5), scan).outcome, Outcome::kSkipped);
-  EXPECT_EQ(stage.process(2 * kPeriod, at(1.5), scan).outcome, Outcome::kStampNotIncreasing);
+  EXPECT_TRUE(result.notices.empty());
+  result = stage.process(2 * kPeriod, at(0.5), scan);
+  EXPECT_EQ(result.outcome, Outcome::kSkipped);
+  EXPECT_FALSE(result.dropped());
+  EXPECT_TRUE(result.notices.empty());
+  result = stage.process(2 * kPeriod, at(1.5), scan);
+  EXPECT_EQ(result.outcome, Outcome::kStampNotIncreasing);
+  ASSERT_EQ(result.notices.size(), 1U);
+  EXPECT_EQ(result.notices[0].kind, "stamp not increasing");
   Pose3 broken = at(1.5);
   broken.translation().y() = std::nan("");
-  EXPECT_EQ(stage.process(3 * kPeriod, broken, scan).outcome, Outcome::kInvalidPose);
+  result = stage.process(3 * kPeriod, broken, scan);
+  EXPECT_EQ(result.outcome, Outcome::kInvalidPose);
+  ASSERT_EQ(result.notices.size(), 1U);
+  EXPECT_EQ(result.notices[0].text, "its pose is not finite");
   result = stage.process(4 * kPeriod, at(1.1), scan);
   ASSERT_EQ(result.outcome, Outcome::kKeyframe);
   EXPECT_EQ(result.decision.id, 1U);
   EXPECT_NEAR(result.decision.travelled_m, 1.1, 1e-9);
   EXPECT_EQ(stage.totals().keyframes, 2U);
   EXPECT_EQ(stage.totals().last_points_out, result.cloud->size());
+}
+
+TEST(KeyframeStage, ReportsWhatIsOddAboutAScanItUses) {
+  // Non-finite points belong in organised clouds only (a missing return keeps its place).
+  Input scan = room();
+  for (int i = 0; i < 10; ++i) scan[i].x = std::nanf("");
+  KeyframeStage stage{PreprocessorParams{}};
+  auto result = stage.process(0, at(0.0), scan);
+  ASSERT_EQ(result.outcome, Outcome::kKeyframe);
+  ASSERT_EQ(result.notices.size(), 1U);
+  EXPECT_EQ(result.notices[0].kind, "not finite");
+  EXPECT_EQ(result.notices[0].text.rfind("10 of " + std::to_string(scan.size()) +
+                                             " points are NaN, infinite or zero in an "
+                                             "unorganised cloud",
+                                         0),
+            0U);
+  scan.resize(scan.size() / 2 * 2);
+  scan.width = static_cast<std::uint32_t>(scan.size() / 2);
+  scan.height = 2;
+  EXPECT_TRUE(stage.process(kPeriod, at(2.0), scan).notices.empty()) << "organised";
+
+  // A keyframe the filters leave empty: a floor, and horizontal points dropped.
+  PreprocessorParams params;
+  params.drop_horizontal = HorizontalFilter::kBoth;
+  KeyframeStage floor_only{params};
+  Input floor;
+  for (const auto& p : room()) {
+    if (p.z < -0.99F) floor.push_back(p);
+  }
+  result = floor_only.process(0, at(0.0), floor);
+  ASSERT_EQ(result.outcome, Outcome::kKeyframe);
+  ASSERT_TRUE(result.cloud);
+  EXPECT_TRUE(result.cloud->empty());
+  ASSERT_EQ(result.notices.size(), 1U);
+  EXPECT_EQ(result.notices[0].kind, "empty keyframe");
+  EXPECT_EQ(result.notices[0].text.rfind("keyframe 0 has no point left after preprocessing (", 0),
+            0U)
+      << result.notices[0].text;
 }
 
 TEST(KeyframeStage, TakesGravityFromTheSensorPose) {

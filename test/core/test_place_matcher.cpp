@@ -130,6 +130,42 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
   EXPECT_TRUE(loop.relative.isApprox(best->verification.relative));
   EXPECT_EQ(loop.covariance, best->verification.covariance);
   EXPECT_FALSE(loop.odom_pose_from) << "described without odometry";
+  EXPECT_EQ(loop.match_score, best->score);
+  EXPECT_EQ(loop.inliers, best->verification.inliers);
+  EXPECT_EQ(loop.fitness_m2, best->verification.fitness_m2);
+  EXPECT_EQ(loop.method, "fabmap");
+}
+
+TEST_F(PlaceMatcherTest, OwnKeyframesCarryTheirOdometryAndPathLength) {
+  PlaceMatcher matcher(MatcherParams{}, model_);
+  const Scene& s = scenes_[0];
+  matcher.addOwnTravel(1.5);
+  matcher.addOwnTravel(2.0);
+  const Pose3 pose(Eigen::Translation3d(3.0, 1.0, 0.0));
+  const DescribedKeyframe k = matcher.describeOwn(5, fromSeconds(2.0), s.cloud, pose);
+  EXPECT_EQ(k.id, 5U);
+  EXPECT_EQ(k.stamp, fromSeconds(2.0));
+  ASSERT_TRUE(k.odom_pose);
+  EXPECT_TRUE(k.odom_pose->isApprox(pose));
+  EXPECT_DOUBLE_EQ(k.path_m, 3.5);
+}
+
+TEST_F(PlaceMatcherTest, ATeammatesWordSetMustShareTheVocabularyAndBeWellFormed) {
+  PlaceMatcher matcher(MatcherParams{}, model_);
+  const std::string& hash = matcher.model().vocabulary.hash();
+  const auto size = static_cast<std::uint32_t>(matcher.model().vocabulary.size());
+  EXPECT_FALSE(matcher.wordsProblem(hash, {0, 3, size - 1}));
+  EXPECT_FALSE(matcher.wordsProblem(hash, {}));
+  const auto other = matcher.wordsProblem("0123abcd", {0, 3});
+  ASSERT_TRUE(other);
+  EXPECT_EQ(other->kind, "other vocabulary");
+  EXPECT_EQ(other->text.rfind("vocabulary 0123abcd, this robot uses " + hash, 0), 0U);
+  for (const WordSet& bad : {WordSet{3, 0}, WordSet{2, 2}, WordSet{0, size}}) {
+    const auto problem = matcher.wordsProblem(hash, bad);
+    ASSERT_TRUE(problem);
+    EXPECT_EQ(problem->kind, "malformed words");
+    EXPECT_EQ(problem->text, "word ids are not sorted, unique and below " + std::to_string(size));
+  }
 }
 
 TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {

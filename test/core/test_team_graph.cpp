@@ -206,17 +206,28 @@ TEST(TeamGraphWorker, OptimisesOnATickAndAtOnceForALoopClosureAndReportsWhatItRe
     Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks);
     for (KeyframeId id = 0; id < 5; ++id) {
       poses.push_back(Pose3(Eigen::Translation3d(double(id), 0.0, 0.0)));
-      worker.add(Worker::OwnKeyframe{id, fromSeconds(100.0 + id), poses.back()});
+      worker.add(Worker::OwnKeyframe{"robot_a", id, fromSeconds(100.0 + id), poses.back()});
     }
-    worker.add(Worker::OwnKeyframe{2, fromSeconds(106.0), poses[2]});  // ids must increase
+    worker.add(Worker::OwnKeyframe{"robot_a", 2, fromSeconds(106.0), poses[2]});  // ids increase
+    worker.add(Worker::OwnKeyframe{"robot_b", 9, fromSeconds(107.0), poses[2]});
+    worker.add(Worker::OwnKeyframe{"robot_a", 9, fromSeconds(107.0), std::nullopt});
+    worker.add(Worker::PeerKeyframe{"robot_a", 9, poses[2]});
+    worker.add(Worker::PeerKeyframe{"robot_b", 9, std::nullopt});
     worker.tick();
     ASSERT_TRUE(optimised(1));
     {
       std::lock_guard<std::mutex> lock(mutex);
       EXPECT_EQ(snapshots[0].poses.size(), 5U);
-      ASSERT_EQ(refusals.size(), 1U);
-      EXPECT_EQ(refusals[0].first, Worker::Refusal::kKeyframe);
-      EXPECT_EQ(refusals[0].second, "keyframe 2");
+      // Refused at once: not this robot's or not a teammate's, no valid pose; then by the graph.
+      ASSERT_EQ(refusals.size(), 5U);
+      EXPECT_EQ(refusals[0].second, "keyframe 9 of 'robot_b': not this robot's");
+      EXPECT_EQ(refusals[1].second, "keyframe 9 of 'robot_a': its pose is not finite");
+      EXPECT_EQ(refusals[2].first, Worker::Refusal::kPeerKeyframe);
+      EXPECT_EQ(refusals[2].second, "keyframe 9 of 'robot_a': not a teammate's");
+      EXPECT_EQ(refusals[3].second, "keyframe 9 of 'robot_b': its pose is not finite");
+      EXPECT_EQ(refusals[4].first, Worker::Refusal::kKeyframe);
+      EXPECT_EQ(refusals[4].second, "keyframe 2: ids must increase");
+      refusals.clear();
     }
     // A loop closure is optimised without waiting for a tick; the same one again is a
     // duplicate (a teammate found it too).
@@ -226,17 +237,60 @@ TEST(TeamGraphWorker, OptimisesOnATickAndAtOnceForALoopClosureAndReportsWhatItRe
     loop.keyframe_to = 4;
     loop.relative = poses[0].inverse() * poses[4];
     loop.covariance = Matrix6::Identity() * 1e-4;
-    worker.add(loop);
+    EXPECT_FALSE(worker.addOwnLoop(loop)) << "an intra-robot closure stays with this robot";
     ASSERT_TRUE(optimised(2));
-    worker.add(loop);
+    worker.addOwnLoop(loop);
     ASSERT_TRUE(optimised(3));
     std::lock_guard<std::mutex> lock(mutex);
     EXPECT_EQ(snapshots[1].intra_loops, 1);
-    ASSERT_EQ(refusals.size(), 2U);
-    EXPECT_EQ(refusals[1].first, Worker::Refusal::kDuplicateLoopClosure);
-    EXPECT_EQ(refusals[1].second, "loop closure robot_a/0 -> robot_a/4");
+    ASSERT_EQ(refusals.size(), 1U);
+    EXPECT_EQ(refusals[0].first, Worker::Refusal::kDuplicateLoopClosure);
+    EXPECT_EQ(refusals[0].second, "loop closure robot_a/0 -> robot_a/4: known");
   }  // stops and joins
   EXPECT_EQ(batches, 3) << "a batch per optimisation";
+}
+
+TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed) {
+  using Worker = TeamGraphWorker;
+  std::mutex mutex;
+  std::vector<std::pair<Worker::Refusal, std::string>> refusals;
+  Worker::Hooks hooks;
+  hooks.refused = [&](Worker::Refusal why, const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex);
+    refusals.emplace_back(why, what);
+  };
+  Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks);
+  LoopClosureData loop;
+  loop.robot_from = "robot_a";
+  loop.robot_to = "robot_b";
+  loop.keyframe_to = 3;
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  EXPECT_TRUE(worker.addOwnLoop(loop)) << "an inter-robot closure goes to the teammates too";
+  LoopClosureData others = loop;
+  others.robot_from = "robot_c";
+  EXPECT_FALSE(worker.addOwnLoop(others));
+  LoopClosureData broken = loop;
+  broken.covariance(2, 2) = -1.0;
+  EXPECT_FALSE(worker.addOwnLoop(broken));
+  // From a teammate: "from" is its keyframe, with that keyframe's odometry pose.
+  LoopClosureData sent = loop;
+  sent.robot_from = "robot_b";
+  sent.robot_to = "robot_a";
+  worker.addTeammateLoop(sent);  // no odom_pose_from
+  worker.addTeammateLoop(others);
+  sent.odom_pose_from = Pose3::Identity();
+  worker.addTeammateLoop(sent);  // used: no refusal
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(refusals.size(), 4U);
+  EXPECT_EQ(refusals[0].first, Worker::Refusal::kLoopClosure);
+  EXPECT_EQ(refusals[0].second,
+            "loop closure robot_c/0 -> robot_b/3: it does not involve this robot");
+  EXPECT_EQ(refusals[1].first, Worker::Refusal::kLoopClosure);
+  EXPECT_EQ(refusals[1].second,
+            "loop closure robot_a/0 -> robot_b/3: covariance not finite and positive definite");
+  EXPECT_EQ(refusals[2].first, Worker::Refusal::kTeammateLoopClosure);
+  EXPECT_EQ(refusals[2].second, "loop closure robot_b/0 -> robot_a/3: no odom_pose_from");
+  EXPECT_EQ(refusals[3].first, Worker::Refusal::kIgnoredLoopClosure);
 }
 
 }  // namespace

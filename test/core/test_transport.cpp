@@ -13,6 +13,7 @@
 
 #include "ccir_mapping/core/transport/compression.h"
 #include "ccir_mapping/core/transport/frame_codec.h"
+#include "ccir_mapping/core/transport/inbox_publishers.h"
 #include "ccir_mapping/core/transport/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 #include "ccir_mapping/core/transport/message_fragments.h"
@@ -670,6 +671,38 @@ TEST(PeerSession, KeepAliveIsHeardAndOversizedMessagesAreNotSent) {
   a.disconnected();
   a.keepAlive(6.0);
   EXPECT_TRUE(a.output(6.0).empty());
+}
+
+TEST(InboxPublishers, ANewTopicHoldsItsFirstMessagesAndRefusesAnotherType) {
+  using Message = std::shared_ptr<const std::string>;
+  std::vector<std::pair<std::string, std::string>> published;
+  struct Sink {
+    std::string topic;
+    std::vector<std::pair<std::string, std::string>>* out;
+    void publish(const Message& message) const { out->emplace_back(topic, *message); }
+  };
+  std::vector<std::string> advertised;
+  InboxPublishers<Message, Sink> inbox(
+      [&](const std::string& topic, const Message& first, bool latched) {
+        advertised.push_back(topic + " (" + *first + (latched ? ", latched)" : ")"));
+        return Sink{topic, &published};
+      },
+      0.5);
+  const auto msg = [](const char* text) { return std::make_shared<const std::string>(text); };
+  EXPECT_TRUE(inbox.publish("inbox/offers", "md5a", false, msg("1"), 10.0));
+  EXPECT_TRUE(inbox.publish("inbox/offers", "md5a", false, msg("2"), 10.2));
+  EXPECT_TRUE(published.empty()) << "held while subscribers connect";
+  EXPECT_FALSE(inbox.publish("inbox/offers", "md5b", false, msg("x"), 10.3)) << "another type";
+  inbox.flush(10.4);
+  EXPECT_TRUE(published.empty());
+  inbox.flush(10.5);
+  using Published = std::vector<std::pair<std::string, std::string>>;
+  EXPECT_EQ(published, (Published{{"inbox/offers", "1"}, {"inbox/offers", "2"}}));
+  EXPECT_TRUE(inbox.publish("inbox/offers", "md5a", false, msg("3"), 10.6));
+  EXPECT_EQ(published.size(), 3U) << "once ready, at once";
+  EXPECT_TRUE(inbox.publish("inbox/scans", "md5b", true, msg("s"), 10.6));
+  EXPECT_EQ(published.size(), 3U) << "a new topic holds its own";
+  EXPECT_EQ(advertised, (std::vector<std::string>{"inbox/offers (1)", "inbox/scans (s, latched)"}));
 }
 
 }  // namespace

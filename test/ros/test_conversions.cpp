@@ -57,6 +57,7 @@ TEST(Conversions, AcceptsAVelodyneCloudAndReportsItsFields) {
   EXPECT_TRUE(fields.intensity);
   EXPECT_TRUE(fields.ring);
   EXPECT_TRUE(fields.time);
+  EXPECT_EQ(missingVelodyneFields(fields), "");
 }
 
 TEST(Conversions, ReportsMissingOptionalFields) {
@@ -68,6 +69,9 @@ TEST(Conversions, ReportsMissingOptionalFields) {
   EXPECT_FALSE(checkCloud(cloud, &fields).has_value());
   EXPECT_FALSE(fields.ring);
   EXPECT_FALSE(fields.intensity);
+  EXPECT_EQ(missingVelodyneFields(fields), "intensity ring time");
+  fields.ring = true;
+  EXPECT_EQ(missingVelodyneFields(fields), "intensity time");
 }
 
 TEST(Conversions, RejectsMalformedClouds) {
@@ -131,7 +135,7 @@ TEST(Conversions, ToPclKeepsLayoutAndReadsIntensityOfAnyWidth) {
   for (const auto& p : out) EXPECT_EQ(p.intensity, 0.0F);
 }
 
-TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
+TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
   pcl::PointCloud<pcl::PointXYZINormal> cloud;
   for (int i = 0; i < 200; ++i) {
     pcl::PointXYZINormal p;
@@ -143,20 +147,41 @@ TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
     p.intensity = static_cast<float>(i % 256);
     cloud.push_back(p);
   }
-  Keyframe keyframe;
-  keyframe.header.stamp = ros::Time(12, 345);
-  keyframe.header.frame_id = "robot_a/velodyne";
-  keyframe.robot = "robot_a";
-  keyframe.id = 42;
-  keyframe.odom_frame = "robot_a/odom";
-  keyframe.odom_pose = toPoseMsg(core::Pose3(Eigen::Translation3d(1, 2, 3)));
-  keyframe.travelled_m = 1.5F;
-  keyframe.rotated_rad = 0.25F;
-  pcl::toROSMsg(cloud, keyframe.cloud);
-  keyframe.cloud.header = keyframe.header;
+  std_msgs::Header header;
+  header.stamp = ros::Time(12, 345);
+  header.frame_id = "robot_a/velodyne";
+  core::preprocess::KeyframeSelector::Decision decision;
+  decision.id = 42;
+  decision.travelled_m = 1.5;
+  decision.rotated_rad = 0.25;
+  const core::Pose3 odom_pose(Eigen::Translation3d(1, 2, 3));
+  const Keyframe keyframe =
+      toKeyframeMsg(header, "robot_a", "robot_a/odom", odom_pose, decision, cloud);
+  EXPECT_EQ(keyframe.header, header);
+  EXPECT_EQ(keyframe.cloud.header, header);
+  EXPECT_EQ(keyframe.robot, "robot_a");
+  EXPECT_EQ(keyframe.id, 42U);
+  EXPECT_EQ(keyframe.odom_frame, "robot_a/odom");
+  EXPECT_FLOAT_EQ(keyframe.travelled_m, 1.5F);
+  EXPECT_FLOAT_EQ(keyframe.rotated_rad, 0.25F);
+  ASSERT_TRUE(toPose(keyframe.odom_pose));
+  EXPECT_TRUE(toPose(keyframe.odom_pose)->isApprox(odom_pose));
+  pcl::PointCloud<pcl::PointXYZINormal> cloud_back;
+  ASSERT_FALSE(toKeyframeCloud(keyframe.cloud, &cloud_back));
+  ASSERT_EQ(cloud_back.size(), cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_EQ(cloud_back[i].getVector3fMap(), cloud[i].getVector3fMap());
+    EXPECT_EQ(cloud_back[i].getNormalVector3fMap(), cloud[i].getNormalVector3fMap());
+    EXPECT_EQ(cloud_back[i].intensity, cloud[i].intensity);
+  }
 
   SharedScan shared;
-  ASSERT_FALSE(toSharedScan(keyframe, &shared));
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  core::Pose3 pose_out;
+  ASSERT_FALSE(toSharedScan(keyframe, &shared, &xyz, &pose_out));
+  ASSERT_EQ(xyz.size(), cloud.size());
+  EXPECT_EQ(xyz[7].getVector3fMap(), cloud[7].getVector3fMap());
+  EXPECT_TRUE(pose_out.isApprox(odom_pose));
   EXPECT_EQ(shared.point_count, 200U);
   EXPECT_LT(shared.points.size(), keyframe.cloud.data.size() / 5);
 
@@ -193,10 +218,15 @@ TEST(Conversions, KeyframeRoundTripsThroughItsSharedScan) {
   auto bad_pose = shared;
   bad_pose.odom_pose.orientation.w = std::numeric_limits<double>::quiet_NaN();
   EXPECT_TRUE(toKeyframe(bad_pose, 1000, &back));
-  // A keyframe without normals has no wire form.
+  // A keyframe without normals or a valid pose has no wire form.
   auto velodyne = keyframe;
   velodyne.cloud = velodyneCloud(10);
   EXPECT_TRUE(toSharedScan(velodyne, &shared));
+  auto lost = keyframe;
+  lost.odom_pose.orientation.w = 0.0;
+  const auto error = toSharedScan(lost, &shared);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(*error, "odom_pose is not finite");
 }
 
 TEST(Conversions, ScanPointsOfAKeyframeOrWhyNot) {
@@ -289,15 +319,39 @@ TEST(Conversions, RoutingMessagesRoundTrip) {
   EXPECT_EQ(state.queued_bulk_bytes, 4242U);
   EXPECT_EQ(state.available_tokens_bytes, 65536.5);
 
-  core::routing::PeerCounters counters;
-  counters.scans_sent = 3;
-  counters.refused["evicted"] = 2;
-  const PeerRouting routing = toPeerRoutingMsg("robot_b", counters);
+  core::routing::BrokerReport report;
+  report.robot = "robot_a";
+  report.mode = core::routing::RoutingMode::kFixedRate;
+  report.keyframes = 9;
+  report.features_sent = 8;
+  report.kept_scans = 7;
+  report.scans_sent = 4;
+  report.scans_received = 2;
+  report.peers["robot_b"].scans_sent = 3;
+  report.peers["robot_b"].scan_bytes_sent = 300;
+  report.peers["robot_b"].refused["evicted"] = 2;
+  report.peers["robot_c"].scan_bytes_sent = 20;
+  report.peers["robot_c"].scan_bytes_received = 50;
+  const BrokerStats stats = toBrokerStatsMsg(report, ros::Time(5));
+  EXPECT_EQ(stats.header.stamp, ros::Time(5));
+  EXPECT_EQ(stats.robot, "robot_a");
+  EXPECT_EQ(stats.mode, "fixed_rate");
+  EXPECT_EQ(stats.keyframes, 9U);
+  EXPECT_EQ(stats.features_sent, 8U);
+  EXPECT_EQ(stats.kept_scans, 7U);
+  EXPECT_EQ(stats.scans_sent, 4U);
+  EXPECT_EQ(stats.scans_received, 2U);
+  EXPECT_EQ(stats.scan_bytes_sent, 320U);
+  EXPECT_EQ(stats.scan_bytes_received, 50U);
+  ASSERT_EQ(stats.peers.size(), 2U);
+  const PeerRouting& routing = stats.peers[0];
   EXPECT_EQ(routing.peer, "robot_b");
   EXPECT_EQ(routing.scans_sent, 3U);
+  EXPECT_EQ(routing.scan_bytes_sent, 300U);
   ASSERT_EQ(routing.refused_reasons.size(), 1U);
   EXPECT_EQ(routing.refused_reasons[0], "evicted");
   EXPECT_EQ(routing.refused_counts[0], 2U);
+  EXPECT_EQ(stats.peers[1].peer, "robot_c");
 }
 
 core::Pose3 somePose(double x, double angle) {
@@ -344,8 +398,16 @@ TEST(Conversions, LoopClosureRoundTrip) {
   loop.relative = somePose(2.0, 0.3);
   loop.covariance = someCovariance();
   loop.odom_pose_from = somePose(-4.0, 1.1);
+  loop.match_score = 0.75;
+  loop.fitness_m2 = 0.04;
+  loop.inliers = 31;
+  loop.method = "fabmap";
   core::backend::LoopClosureData back;
   ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
+  EXPECT_EQ(back.match_score, 0.75);
+  EXPECT_EQ(back.fitness_m2, 0.04);
+  EXPECT_EQ(back.inliers, 31);
+  EXPECT_EQ(back.method, "fabmap");
   EXPECT_EQ(back.robot_from, "robot_a");
   EXPECT_EQ(back.keyframe_from, 12U);
   EXPECT_EQ(back.robot_to, "robot_b");
@@ -388,6 +450,194 @@ TEST(Conversions, TeamTransformCarriesTheEstimate) {
   EXPECT_DOUBLE_EQ(msg.margin, 4.0);
   estimate.alignment.runner_up_inliers = 0;
   EXPECT_DOUBLE_EQ(toTeamTransformMsg(estimate, "robot_a/map", ros::Time(1)).margin, 12.0);
+  // The receiver's view: the peer's frame while valid and finite, nothing otherwise.
+  const auto frame = toTeamFrame(msg);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->isApprox(estimate.alignment.transform, 1e-12));
+  estimate.alignment.found = false;
+  EXPECT_FALSE(toTeamFrame(toTeamTransformMsg(estimate, "robot_a/map", ros::Time(1))));
+  TeamTransform broken = msg;
+  broken.transform.translation.x = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(toTeamFrame(broken));
+}
+
+TEST(Conversions, AnyMessageCrossesTheBridgeAsBytesWithItsDescription) {
+  const geometry_msgs::Pose pose = toPoseMsg(somePose(1.0, 0.2));
+  std::vector<std::uint8_t> bytes(ros::serialization::serializationLength(pose));
+  ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::serialize(out, pose);
+  core::transport::InboxMessage message;
+  message.topic.name = "inbox/pose";
+  message.topic.type = ros::message_traits::datatype(pose);
+  message.topic.md5 = ros::message_traits::md5sum(pose);
+  message.topic.definition = ros::message_traits::definition(pose);
+  message.bytes = bytes;
+  std::string error;
+  const auto shifter = toShapeShifter(message, &error);
+  ASSERT_TRUE(shifter) << error;
+  const auto back = shifter->instantiate<geometry_msgs::Pose>();
+  ASSERT_TRUE(back);
+  EXPECT_EQ(*back, pose);
+  EXPECT_EQ(toBytes(*shifter), bytes);
+
+  core::transport::ForwardedTopic forwarded;
+  forwarded.topic = "outbox/pose";
+  forwarded.reliable = false;
+  forwarded.compress = true;
+  const ros::M_string latching = {{"latching", "1"}, {"type", "geometry_msgs/Pose"}};
+  const auto topic = toTopicInfo(*shifter, forwarded, &latching);
+  EXPECT_EQ(topic.name, "inbox/pose");
+  EXPECT_EQ(topic.type, "geometry_msgs/Pose");
+  EXPECT_EQ(topic.md5, message.topic.md5);
+  EXPECT_EQ(topic.definition, message.topic.definition);
+  EXPECT_TRUE(topic.latched);
+  EXPECT_FALSE(topic.reliable);
+  EXPECT_TRUE(topic.compressed);
+  EXPECT_FALSE(toTopicInfo(*shifter, forwarded, nullptr).latched);
+  const ros::M_string not_latching = {{"latching", "0"}};
+  EXPECT_FALSE(toTopicInfo(*shifter, forwarded, &not_latching).latched);
+
+  message.topic.md5 = "short";
+  EXPECT_FALSE(toShapeShifter(message, &error));
+  EXPECT_EQ(error, "type 'geometry_msgs/Pose', md5 'short'");
+  message.topic.md5 = topic.md5;
+  message.topic.type = "NoPackage";
+  EXPECT_FALSE(toShapeShifter(message, &error));
+}
+
+TEST(Conversions, LinkStatsReportALinkWithItsBudgetsAndTheDropsThatHappened) {
+  core::transport::LinkReport report;
+  report.peer = "robot_b";
+  report.address = "10.0.0.2:4000";
+  report.connected = true;
+  report.sent.bytes_sent = 5000;
+  report.sent.messages_sent = 7;
+  report.received.bytes_received = 900;
+  report.received.messages_received = 3;
+  report.queued_control = 2;
+  report.queued_bulk = 1;
+  report.queued_control_bytes = 300;
+  report.queued_bulk_bytes = 60000;
+  report.available_tokens_bytes = 1234.5;
+  report.drops = {{"queue_full", 4}, {"too_old", 0}};
+  report.silent_s = 2.5;
+  core::transport::BridgeParams params;
+  params.budget_bytes_per_s = 100000;
+  params.total_budget_bytes_per_s = 150000;
+  const LinkStats msg = toLinkStatsMsg(report, "robot_a", params, ros::Time(100), 812.5);
+  EXPECT_EQ(msg.header.stamp, ros::Time(100));
+  EXPECT_EQ(msg.robot, "robot_a");
+  EXPECT_EQ(msg.peer, "robot_b");
+  EXPECT_TRUE(msg.connected);
+  EXPECT_EQ(msg.address, "10.0.0.2:4000");
+  EXPECT_EQ(msg.bytes_sent, 5000U);
+  EXPECT_EQ(msg.messages_sent, 7U);
+  EXPECT_EQ(msg.bytes_received, 900U);
+  EXPECT_EQ(msg.messages_received, 3U);
+  EXPECT_DOUBLE_EQ(msg.send_rate_bytes_per_s, 812.5);
+  EXPECT_DOUBLE_EQ(msg.budget_bytes_per_s, 100000);
+  EXPECT_DOUBLE_EQ(msg.total_budget_bytes_per_s, 150000);
+  EXPECT_EQ(msg.queued_control, 2U);
+  EXPECT_EQ(msg.queued_bulk_bytes, 60000U);
+  EXPECT_DOUBLE_EQ(msg.available_tokens_bytes, 1234.5);
+  EXPECT_EQ(msg.drop_reasons, (std::vector<std::string>{"queue_full"}));
+  EXPECT_EQ(msg.drop_counts, (std::vector<std::uint64_t>{4}));
+  EXPECT_EQ(msg.last_seen, ros::Time(97.5));
+  // The Broker's view of the same link.
+  const auto state = toLinkState(msg);
+  EXPECT_TRUE(state.connected);
+  EXPECT_EQ(state.queued_bulk_bytes, 60000U);
+  EXPECT_DOUBLE_EQ(state.available_tokens_bytes, 1234.5);
+  report.silent_s = -1.0;  // never heard
+  EXPECT_EQ(toLinkStatsMsg(report, "robot_a", params, ros::Time(100), 0.0).last_seen, ros::Time());
+}
+
+TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
+  core::information::MapStage::Stats stats;
+  stats.entropy_bits = 1234.5;
+  stats.known_volume_m3 = 67.25;
+  stats.keyframes = 9;
+  stats.peer_scans = 4;
+  stats.pending_peer_scans = 2;
+  stats.rebuilds = 3;
+  core::information::MapperParams params;
+  params.resolution_m = 0.2;
+  params.entropy_box_half_width_m = 30.0;
+  std_msgs::Header header;
+  header.frame_id = "robot_a/map";
+  const MapStats msg = toMapStatsMsg(stats, params, "robot_a", header);
+  EXPECT_EQ(msg.header.frame_id, "robot_a/map");
+  EXPECT_EQ(msg.robot, "robot_a");
+  EXPECT_DOUBLE_EQ(msg.resolution_m, 0.2);
+  EXPECT_DOUBLE_EQ(msg.entropy_bits, 1234.5);
+  EXPECT_DOUBLE_EQ(msg.known_volume_m3, 67.25);
+  EXPECT_DOUBLE_EQ(msg.box_min.x, params.entropyBoxMin().x());
+  EXPECT_DOUBLE_EQ(msg.box_max.z, params.entropyBoxMax().z());
+  EXPECT_EQ(msg.keyframes, 9U);
+  EXPECT_EQ(msg.peer_scans, 4U);
+  EXPECT_EQ(msg.pending_peer_scans, 2U);
+  EXPECT_EQ(msg.rebuilds, 3U);
+}
+
+TEST(Conversions, TfCarriesTheOdometryCorrectionAndTheTransformsFound) {
+  core::team::BackendSnapshot snapshot;
+  snapshot.poses = {somePose(0.0, 0.0), somePose(5.0, 0.3)};
+  snapshot.latest_odom_pose = somePose(4.0, 0.1);
+  core::team::TeamEstimate found;
+  found.peer = "robot_b";
+  found.alignment.found = true;
+  found.alignment.transform = somePose(-3.0, 0.7);
+  core::team::TeamEstimate not_yet;
+  not_yet.peer = "robot_c";
+  snapshot.team = {found, not_yet};
+  const auto transforms = toTfMsgs(snapshot, "robot_a/map", "robot_a/odom", ros::Time(9));
+  ASSERT_EQ(transforms.size(), 2U);
+  EXPECT_EQ(transforms[0].child_frame_id, "robot_a/odom");
+  EXPECT_EQ(transforms[0].header.stamp, ros::Time(9));
+  const auto map_from_odom = toPose(transforms[0].transform);
+  ASSERT_TRUE(map_from_odom);
+  // The odometry pose of the newest keyframe, corrected, is its optimised pose.
+  EXPECT_TRUE((*map_from_odom * snapshot.latest_odom_pose).isApprox(snapshot.poses.back(), 1e-9));
+  EXPECT_EQ(transforms[1].header.frame_id, "robot_a/map");
+  EXPECT_EQ(transforms[1].child_frame_id, "robot_b/map");
+  EXPECT_TRUE(toPose(transforms[1].transform)->isApprox(found.alignment.transform, 1e-12));
+}
+
+TEST(Conversions, UncertaintyFeaturesAndCorrespondences) {
+  std_msgs::Header header;
+  header.stamp = ros::Time(3);
+  header.frame_id = "robot_a/map";
+  const KeyframeUncertainty uncertainty =
+      toKeyframeUncertaintyMsg("robot_a", header, {4, 9}, {0.25, 1.5});
+  EXPECT_EQ(uncertainty.header.frame_id, "robot_a/map");
+  EXPECT_EQ(uncertainty.robot, "robot_a");
+  const auto variances = toVariances(uncertainty);
+  ASSERT_TRUE(variances);
+  EXPECT_EQ(*variances, (std::vector<std::pair<core::KeyframeId, double>>{{4, 0.25}, {9, 1.5}}));
+  KeyframeUncertainty short_one = uncertainty;
+  short_one.position_variance_m2.pop_back();
+  EXPECT_FALSE(toVariances(short_one));
+
+  const KeyframeFeatures features =
+      toKeyframeFeaturesMsg(header, "robot_a", 17, "cafe01", {2, 5, 400}, 260);
+  EXPECT_EQ(features.header.stamp, ros::Time(3));
+  EXPECT_EQ(features.robot, "robot_a");
+  EXPECT_EQ(features.keyframe_id, 17U);
+  EXPECT_EQ(features.vocabulary_hash, "cafe01");
+  EXPECT_EQ(features.words, (std::vector<std::uint32_t>{2, 5, 400}));
+  EXPECT_EQ(features.descriptor_count, 260U);
+
+  const std::vector<std::pair<core::KeyframeId, int>> counts = {{12, 30}, {3, 7}};
+  const Correspondences c = toCorrespondencesMsg("robot_a", "robot_b", 44, ros::Time(8), counts);
+  EXPECT_EQ(c.robot, "robot_a");
+  EXPECT_EQ(c.peer, "robot_b");
+  EXPECT_EQ(c.peer_keyframe_id, 44U);
+  EXPECT_EQ(c.header.stamp, ros::Time(8));
+  ASSERT_TRUE(toCorrespondenceCounts(c));
+  EXPECT_EQ(*toCorrespondenceCounts(c), counts);
+  Correspondences broken = c;
+  broken.counts.push_back(1);
+  EXPECT_FALSE(toCorrespondenceCounts(broken));
 }
 
 TEST(Conversions, PathRoundTripsAndSkipsBrokenPoses) {

@@ -83,6 +83,18 @@ TEST(ParamLoading, InvalidRobotNameAndFrames) {
   EXPECT_TRUE(hasError(reader, "odom_frame = '/odom' is not allowed"));
 }
 
+TEST(ParamLoading, TheMapGoesToRosHomeUnlessAPathIsGiven) {
+  ::setenv("ROS_HOME", "/tmp/some_ros_home", 1);
+  MapperSettings settings;
+  ParamReader reader{params("{robot_name: robot_c}")};
+  load(reader, settings);
+  EXPECT_EQ(settings.map_path, "/tmp/some_ros_home/robot_c_map.bt");
+  MapperSettings given;
+  ParamReader with_path{params("{robot_name: robot_c, map_path: /data/c.bt}")};
+  load(with_path, given);
+  EXPECT_EQ(given.map_path, "/data/c.bt");
+}
+
 TEST(ParamLoading, UnknownKeysAreReported) {
   ParamReader reader{params("{voxel_leaf: 0.2, voxel_leaf_m: 0.2}")};
   PreprocessorSettings settings;

@@ -1,6 +1,7 @@
 // Where the Preprocessor places a scan (ScanPlacement): from tf at the scan's stamp, or from
 // odometry (interpolated, refused when in other frames, not finite or going back) and the static
-// sensor mount; scans wait, with a reason, until what places them has arrived.
+// sensor mount; scans wait in arrival order until what places them has arrived, or are given up
+// with a reason.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -87,6 +88,60 @@ TEST(ScanPlacement, FromTfAtTheScansStamp) {
   EXPECT_FALSE(placement.sensorPose("r/velodyne", ros::Time(2.5), &why));
   EXPECT_FALSE(placement.sensorPose("no_such_frame", ros::Time(1.05), &why));
   EXPECT_NE(why.find("no_such_frame"), std::string::npos) << why;
+}
+
+sensor_msgs::PointCloud2::ConstPtr scan(double t, const std::string& frame = "r/base_link") {
+  auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+  cloud->header.stamp = ros::Time(t);
+  cloud->header.frame_id = frame;
+  return cloud;
+}
+
+std::vector<double> stamps(const std::vector<ScanPlacement::Placement>& placements, bool placed) {
+  std::vector<double> result;
+  for (const auto& p : placements) {
+    if (p.pose.has_value() == placed) result.push_back(p.cloud->header.stamp.toSec());
+  }
+  return result;
+}
+
+TEST(ScanPlacement, ScansWaitForOdometryInArrivalOrder) {
+  ScanPlacement placement(settings("topic"), "/r/odom");
+  EXPECT_TRUE(placement.wait(scan(1.0)).empty());
+  EXPECT_TRUE(placement.wait(scan(1.1)).empty());
+  EXPECT_EQ(placement.waiting(), 2U);
+  ASSERT_FALSE(placement.addOdometry(odometry(0.9, 0.0)));
+  ASSERT_FALSE(placement.addOdometry(odometry(1.05, 1.5)));
+  auto released = placement.release();
+  ASSERT_EQ(released.size(), 1U) << "the scan at 1.1 waits on";
+  EXPECT_NEAR(released[0].pose->translation().x(), 1.0, 1e-9);
+  ASSERT_FALSE(placement.addOdometry(odometry(1.2, 3.0)));
+  EXPECT_EQ(stamps(placement.release(), true), (std::vector<double>{1.1}));
+  EXPECT_EQ(placement.waiting(), 0U);
+}
+
+TEST(ScanPlacement, AScanThatCannotBePlacedIsGivenUpWithWhy) {
+  ScanPlacement placement(settings("topic"), "/r/odom");
+  ASSERT_FALSE(placement.addOdometry(odometry(0.55, 0.0)));
+  ASSERT_FALSE(placement.addOdometry(odometry(0.7, 0.0)));
+  // A frame whose mount never comes waits until a later scan is placed, then is given up.
+  EXPECT_TRUE(placement.wait(scan(0.5, "no_such_frame")).empty());
+  auto released = placement.wait(scan(0.6));
+  ASSERT_EQ(released.size(), 2U);
+  EXPECT_FALSE(released[0].pose);
+  EXPECT_EQ(released[0].why.rfind("cannot place it (a later scan was placed first): ", 0), 0U)
+      << released[0].why;
+  EXPECT_NE(released[0].why.find("no_such_frame"), std::string::npos) << released[0].why;
+  EXPECT_TRUE(released[1].pose);
+  // Scans waiting for odometry that never comes: the oldest goes when the queue is full.
+  for (std::size_t i = 0; i < ScanPlacement::kMaxWaitingScans; ++i) {
+    EXPECT_TRUE(placement.wait(scan(2.0 + 0.1 * double(i))).empty());
+  }
+  released = placement.wait(scan(9.0));
+  ASSERT_EQ(released.size(), 1U);
+  EXPECT_EQ(released[0].cloud->header.stamp, ros::Time(2.0));
+  EXPECT_EQ(released[0].why,
+            "cannot place it (waited too long): no odometry at or after its stamp on '/r/odom'");
 }
 
 }  // namespace

@@ -14,14 +14,14 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
-#include "ccir_mapping/core/preprocess/velodyne_pcap_reader.h"
+#include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
 #include "ccir_mapping/ros/conversions.h"
 
 namespace ccir_mapping {
 namespace {
 
 namespace fs = std::filesystem;
-using core::preprocess::VelodynePcapReader;
+using core::velodyne::VelodynePcapReader;
 
 fs::path capture(const std::string& name) {
   const char* dir = std::getenv("CCIR_DATA_DIR");

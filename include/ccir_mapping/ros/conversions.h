@@ -12,13 +12,18 @@
 #include <pcl/point_types.h>
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <topic_tools/shape_shifter.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <boost/array.hpp>
 
+#include "ccir_mapping/BrokerStats.h"
+#include "ccir_mapping/Correspondences.h"
 #include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/KeyframeFeatures.h"
+#include "ccir_mapping/KeyframeUncertainty.h"
 #include "ccir_mapping/LinkStats.h"
 #include "ccir_mapping/LoopClosure.h"
-#include "ccir_mapping/PeerRouting.h"
+#include "ccir_mapping/MapStats.h"
 #include "ccir_mapping/ScanOffer.h"
 #include "ccir_mapping/ScanReceipt.h"
 #include "ccir_mapping/ScanRequest.h"
@@ -26,8 +31,11 @@
 #include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/information/map_stage.h"
+#include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/team/team_graph.h"
+#include "ccir_mapping/core/transport/bridge.h"
 
 namespace ccir_mapping::conversions {
 
@@ -55,16 +63,50 @@ std::vector<std::pair<core::Stamp, core::Pose3>> toStampedPoses(const nav_msgs::
 nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
                          const std::vector<core::Pose3>& poses, const std::string& frame);
 
-/// A loop closure's keyframes, relative pose, covariance and (when it is a valid pose: an unset
-/// one has a zero quaternion) odom_pose_from; false when the relative pose is not finite
-/// (core::backend::loopClosureProblem checks the rest).
+/// A loop closure's keyframes, relative pose, covariance, (when it is a valid pose: an unset
+/// one has a zero quaternion) odom_pose_from and match figures; false when the relative pose is
+/// not finite (core::backend::loopClosureProblem checks the rest).
 bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out);
-/// The same fields of a LoopClosure message (its header and the match's figures are the
-/// finder's to set).
+/// The same fields of a LoopClosure message (its header is the finder's to set).
 LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop);
 /// A team transform estimate of `estimate.peer`'s map frame in `map_frame`.
 TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
                                  const std::string& map_frame, const ros::Time& stamp);
+/// The teammate's map frame in this robot's, or nullopt unless the message is valid and its
+/// transform finite.
+std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg);
+
+/// Pose uncertainty u_k of `robot`'s keyframes (same length).
+KeyframeUncertainty toKeyframeUncertaintyMsg(const std::string& robot,
+                                             const std_msgs::Header& header,
+                                             const std::vector<core::KeyframeId>& ids,
+                                             const std::vector<double>& variances_m2);
+/// (keyframe, variance) pairs, or nullopt when ids and variances differ in length.
+std::optional<std::vector<std::pair<core::KeyframeId, double>>> toVariances(
+    const KeyframeUncertainty& msg);
+
+/// A keyframe's word set under the vocabulary with `vocabulary_hash`, quantised from
+/// `descriptor_count` descriptors.
+KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header, const std::string& robot,
+                                       core::KeyframeId id, const std::string& vocabulary_hash,
+                                       const std::vector<std::uint32_t>& words,
+                                       std::size_t descriptor_count);
+
+/// c_k of `robot`'s keyframes with keyframe `peer_keyframe` of teammate `peer`, most first.
+Correspondences toCorrespondencesMsg(const std::string& robot, const std::string& peer,
+                                     core::KeyframeId peer_keyframe, const ros::Time& stamp,
+                                     const std::vector<std::pair<core::KeyframeId, int>>& counts);
+/// (keyframe, c_k) pairs, or nullopt when ids and counts differ in length.
+std::optional<std::vector<std::pair<core::KeyframeId, int>>> toCorrespondenceCounts(
+    const Correspondences& msg);
+
+/// What a Backend snapshot puts on tf at `stamp`: odom_frame in map_frame, and each teammate's
+/// map frame ("<peer>/map") whose transform is found.
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendSnapshot& snapshot,
+                                                      const std::string& map_frame,
+                                                      const std::string& odom_frame,
+                                                      const ros::Time& stamp);
+
 /// Loop closures as lines between their keyframes, one LINE_LIST each: kept intra-robot ones
 /// green ("loops kept"), rejected red ("loops rejected"), inter-robot blue ("inter-robot
 /// loops"); an empty list is a DELETE (rviz would keep drawing the last lines).
@@ -84,6 +126,10 @@ struct CloudFields {
   bool time = false;
 };
 
+/// The optional fields of the Velodyne driver's layout a cloud lacks ("intensity ring time"),
+/// or "" when it has them all.
+std::string missingVelodyneFields(const CloudFields& fields);
+
 /// Checks a cloud before anything reads it: buffer size matches width, height and steps;
 /// x y z are FLOAT32 inside point_step; optional fields are reported. Returns an error that
 /// names the problem, or the fields found.
@@ -99,22 +145,35 @@ void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI
 std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud,
                                            pcl::PointCloud<pcl::PointXYZINormal>* out);
 
+/// A keyframe as the Preprocessor publishes it: `cloud` of the scan with `header` (the sensor
+/// frame at its stamp), taken by `robot` at `odom_pose` in `odom_frame`, as the selector decided.
+Keyframe toKeyframeMsg(const std_msgs::Header& header, const std::string& robot,
+                       const std::string& odom_frame, const core::Pose3& odom_pose,
+                       const core::preprocess::KeyframeSelector::Decision& decision,
+                       const pcl::PointCloud<pcl::PointXYZINormal>& cloud);
+
 /// A keyframe's points (x y z, sensor frame) and odometry pose, what the map needs. Returns an
 /// error when its cloud is malformed or empty or its pose not finite.
 std::optional<std::string> toScanPoints(const Keyframe& keyframe,
                                         pcl::PointCloud<pcl::PointXYZ>* points,
                                         core::Pose3* odom_pose);
 
-/// A keyframe in its wire form (SharedScan.msg, core/transport/scan_codec.h). Returns an error
-/// naming what is wrong (the cloud is not a keyframe cloud, a value is not finite).
-std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out);
+/// A keyframe in its wire form (SharedScan.msg, core/transport/scan_codec.h), and when asked
+/// its points (x y z) and odometry pose. Returns an error naming what is wrong (the cloud is not
+/// a keyframe cloud, a value is not finite).
+std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out,
+                                        pcl::PointCloud<pcl::PointXYZ>* xyz = nullptr,
+                                        core::Pose3* odom_pose = nullptr);
+/// Most points a teammate's scan may decode to (a VLP-16 sweep has ~29 k before filtering).
+constexpr std::size_t kMaxTeammateScanPoints = 1 << 20;
 /// A teammate's scan back as a keyframe (cloud x y z intensity normals, FLOAT32, as the
 /// Preprocessor makes it). `max_points` bounds what a peer can make this robot allocate.
 std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
                                       Keyframe* out);
 
 /// CCIR's protocol messages. A teammate's offer with a non-finite or non-unit pose is refused
-/// (error), the rest cannot be malformed in their fields (the broker checks their content).
+/// (error; its provider and requester are set all the same), the rest cannot be malformed in
+/// their fields (the broker checks their content).
 std::optional<std::string> toOffer(const ScanOffer& msg, core::routing::Offer* out);
 ScanOffer toOfferMsg(const core::routing::Offer& offer, const std::string& map_frame);
 core::routing::Request toRequest(const ScanRequest& msg);
@@ -122,6 +181,30 @@ ScanRequest toRequestMsg(const core::routing::Request& request);
 core::routing::Receipt toReceipt(const ScanReceipt& msg);
 ScanReceipt toReceiptMsg(const core::routing::Receipt& receipt);
 core::routing::LinkState toLinkState(const LinkStats& msg);
-PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerCounters& counters);
+/// What the Bridge tells teammates of an outbox message's topic: its inbox name, the type, md5
+/// and definition the publisher announced, whether it latches (its connection header says so),
+/// and how it travels.
+core::transport::TopicInfo toTopicInfo(const topic_tools::ShapeShifter& msg,
+                                       const core::transport::ForwardedTopic& forwarded,
+                                       const ros::M_string* connection_header);
+/// A message's serialised bytes.
+std::vector<std::uint8_t> toBytes(const topic_tools::ShapeShifter& msg);
+/// A teammate's message as its topic described it, or null when the description cannot be one
+/// (a type without a package, an md5 not of 32 characters), with why in `error`.
+topic_tools::ShapeShifter::ConstPtr toShapeShifter(const core::transport::InboxMessage& message,
+                                                   std::string* error);
+
+/// One bridge link's report at `now`, with the budgets of `params` and the send rate measured
+/// since the previous report; drop reasons that never happened are left out.
+LinkStats toLinkStatsMsg(const core::transport::LinkReport& report, const std::string& robot,
+                         const core::transport::BridgeParams& params, const ros::Time& now,
+                         double send_rate_bytes_per_s);
+/// A robot's map statistics, with the map's resolution and entropy box from its parameters.
+MapStats toMapStatsMsg(const core::information::MapStage::Stats& stats,
+                       const core::information::MapperParams& params, const std::string& robot,
+                       const std_msgs::Header& header);
+
+/// The totals, with the scan bytes summed over the teammates, and each teammate's counters.
+BrokerStats toBrokerStatsMsg(const core::routing::BrokerReport& report, const ros::Time& stamp);
 
 }  // namespace ccir_mapping::conversions

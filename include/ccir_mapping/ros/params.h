@@ -49,7 +49,8 @@ struct BackendSettings {
 
 struct MapperSettings {
   RobotFrames frames;
-  /// Where ~save_map and shutdown write the map (.bt); empty: $ROS_HOME/<robot>_map.bt.
+  /// Where ~save_map and shutdown write the map (.bt); left empty, load() sets
+  /// $ROS_HOME/<robot>_map.bt (~/.ros without ROS_HOME).
   std::string map_path;
   bool save_on_shutdown = true;
   core::information::MapperParams core;

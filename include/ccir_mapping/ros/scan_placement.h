@@ -1,17 +1,20 @@
 // Where a scan was taken: the sensor frame in the odometry frame at the scan's stamp, from tf
 // (odom_source "tf": odom_frame -> sensor frame at the stamp) or from odometry messages and the
 // sensor mount on tf (odom_source "topic": base_frame in odom_frame, interpolated; the mount is
-// static, so its latest transform is used).
+// static, so its latest transform is used). Scans wait here, in arrival order, until what
+// places them has arrived.
 #pragma once
 
 #include <optional>
 #include <string>
 
 #include <nav_msgs/Odometry.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
 
 namespace ccir_mapping::ros_params {
 struct PreprocessorSettings;
@@ -45,12 +48,32 @@ class ScanPlacement {
   std::optional<core::Pose3> sensorPose(const std::string& sensor_frame, const ros::Time& stamp,
                                         std::string* why) const;
 
+  /// A scan placed (with its pose) or given up (without; `why` says why).
+  struct Placement {
+    sensor_msgs::PointCloud2::ConstPtr cloud;
+    std::optional<core::Pose3> pose;
+    std::string why;
+  };
+  /// Scans that wait at most: two seconds of a VLP-16 at 10 Hz.
+  static constexpr std::size_t kMaxWaitingScans = 20;
+  /// Lets a scan wait until it can be placed (when kMaxWaitingScans already wait, the oldest is
+  /// given up) and returns release()'s.
+  std::vector<Placement> wait(const sensor_msgs::PointCloud2::ConstPtr& cloud);
+  /// The waiting scans that can be placed now, and those a later scan that could be placed
+  /// overtook (given up: what places a scan arrives in time order), in arrival order; the rest
+  /// wait on. Call it when odometry or tf arrived.
+  std::vector<Placement> release();
+  std::size_t waiting() const { return waiting_.size(); }
+
  private:
+  Placement givenUp(const sensor_msgs::PointCloud2::ConstPtr& cloud, const char* context) const;
+
   bool from_tf_;
   std::string odom_frame_, base_frame_, odometry_topic_;
   double odom_tolerance_s_;
   core::preprocess::OdometryBuffer odometry_;
   tf2_ros::Buffer tf_;
+  core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> waiting_{kMaxWaitingScans};
 };
 
 }  // namespace ccir_mapping

@@ -87,6 +87,10 @@ backend::LoopClosureData PlaceMatcher::loopClosure(const std::string& self,
   loop.relative = match.verification.relative;
   loop.covariance = match.verification.covariance;
   loop.odom_pose_from = placeOdomPose(loop.keyframe_from);
+  loop.match_score = match.score;
+  loop.fitness_m2 = match.verification.fitness_m2;
+  loop.inliers = match.verification.inliers;
+  loop.method = toString(params_.method);
   return loop;
 }
 
@@ -111,6 +115,33 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
   k.words = model_->vocabulary.quantize(features.descriptors);
   k.scan = verifier_.prepare(cloud, std::move(features));
   return k;
+}
+
+DescribedKeyframe PlaceMatcher::describeOwn(KeyframeId id, Stamp stamp,
+                                            const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                                            const Pose3& odom_pose) const {
+  DescribedKeyframe k = describe(id, stamp, cloud, upInFrame(odom_pose));
+  k.odom_pose = odom_pose;
+  k.path_m = path_m_;
+  return k;
+}
+
+std::optional<Notice> PlaceMatcher::wordsProblem(const std::string& vocabulary_hash,
+                                                 const WordSet& words) const {
+  const Vocabulary& vocabulary = model_->vocabulary;
+  if (vocabulary_hash != vocabulary.hash()) {
+    return Notice{"other vocabulary", "vocabulary " + vocabulary_hash + ", this robot uses " +
+                                          vocabulary.hash() +
+                                          " (give every robot the same model_dir)"};
+  }
+  const bool sorted_unique =
+      std::adjacent_find(words.begin(), words.end(),
+                         [](std::uint32_t a, std::uint32_t b) { return a >= b; }) == words.end();
+  if (!sorted_unique || (!words.empty() && words.back() >= vocabulary.size())) {
+    return Notice{"malformed words",
+                  "word ids are not sorted, unique and below " + std::to_string(vocabulary.size())};
+  }
+  return std::nullopt;
 }
 
 std::vector<std::pair<KeyframeId, int>> PlaceMatcher::correspondences(const WordSet& words) const {

@@ -19,6 +19,7 @@ constexpr int kFootprintBlockLevels = 3;
 
 CcirBroker::CcirBroker(std::string self, std::vector<std::string> peers, const BrokerParams& params)
     : self_(std::move(self)), params_(params), fixed_rate_(params.fixed_rate_every_n) {
+  report_.robot = self_;
   const auto errors = params.validate();
   if (!errors.empty()) throw std::invalid_argument("CcirBroker: " + errors.front());
   for (const auto& name : peers) {
@@ -56,6 +57,7 @@ void CcirBroker::addPeer(const std::string& name) {
 std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose,
                                                 std::size_t size_bytes,
                                                 std::vector<information::VoxelGain> footprint) {
+  ++report_.keyframes;
   Kept& kept = kept_[id];
   kept.stamp = stamp;
   kept.odom_pose = odom_pose;
@@ -79,6 +81,7 @@ bool CcirBroker::sendsToAll(KeyframeId id) {
                     (params_.mode == RoutingMode::kFixedRate && fixed_rate_.select());
   if (!send || !kept_.count(id)) return false;
   for (auto& [name, peer] : peers_) markSent(name, peer, id, 0.0);
+  ++report_.scans_sent;
   return true;
 }
 
@@ -107,8 +110,9 @@ void CcirBroker::setCorrespondences(const std::string& name, KeyframeId id, int 
   }
 }
 
-void CcirBroker::setTransformKnown(const std::string& name, bool known) {
-  if (Peer* peer = find(name)) peer->transform_known = known;
+void CcirBroker::setTeamTransform(const std::string& name,
+                                  const std::optional<Pose3>& map_from_peer) {
+  if (Peer* peer = find(name)) peer->map_from_peer = map_from_peer;
 }
 
 void CcirBroker::setLink(const std::string& name, const LinkState& link) {
@@ -201,7 +205,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     const auto c = peer->correspondences.find(ids[i]);
     if (c == peer->correspondences.end()) continue;
     double u = 1.0;
-    if (peer->transform_known && max_variance > 0.0) {
+    if (peer->map_from_peer.has_value() && max_variance > 0.0) {
       u = candidates[i]->variance_m2 < 0.0 ? 1.0 : candidates[i]->variance_m2 / max_variance;
     }
     f[i] = double(c->second) * u;
@@ -210,7 +214,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
   for (double& v : f) v = eta > 0.0 ? v / eta : 0.0;
 
   const double lambda = params_.loop_closure_weight;
-  const double k = peer->transform_known ? 1.0 : params_.unknown_transform_factor;
+  const double k = peer->map_from_peer.has_value() ? 1.0 : params_.unknown_transform_factor;
   double eta_i = 0.0;
   if (lambda < 1.0) {
     for (const Kept* kept : candidates)
@@ -309,6 +313,7 @@ CcirBroker::RequestOutcome CcirBroker::onRequest(const Request& request, double 
     markSent(request.requester, *peer, id, now_s);
     outcome.send.push_back(id);
   }
+  report_.scans_sent += outcome.send.size();
   return outcome;
 }
 
@@ -351,7 +356,8 @@ bool CcirBroker::onOffer(const Offer& offer, std::string* reason) {
   return true;
 }
 
-std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information, double now_s) {
+std::vector<Request> CcirBroker::chooseRequests(const SensorInformation& information,
+                                                double now_s) {
   struct Scored {
     std::string provider;
     const OfferEntry* entry;
@@ -368,7 +374,8 @@ std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information, 
       if (asked != peer.requested.end() && now_s - asked->second < params_.receipt_timeout_s) {
         continue;
       }
-      const double csqmi = peer.transform_known ? std::max(0.0, information(name, entry)) : 0.0;
+      const double csqmi =
+          peer.map_from_peer ? std::max(0.0, information(*peer.map_from_peer * entry.pose)) : 0.0;
       scored.push_back({name, &entry, csqmi, 0.0});
       c_max = std::max(c_max, double(entry.correspondences));
       csqmi_max = std::max(csqmi_max, csqmi);
@@ -377,7 +384,7 @@ std::vector<Request> CcirBroker::chooseRequests(const OfferScorer& information, 
   const double lambda = params_.loop_closure_weight;
   for (Scored& s : scored) {
     const double f = c_max > 0.0 ? s.entry->correspondences / c_max : 0.0;
-    const double i = peers_.at(s.provider).transform_known
+    const double i = peers_.at(s.provider).map_from_peer
                          ? (csqmi_max > 0.0 ? s.csqmi / csqmi_max : 0.0)
                          : params_.unknown_transform_factor;
     s.score = lambda * f + (1.0 - lambda) * i;
@@ -435,6 +442,7 @@ bool CcirBroker::onScanReceived(const std::string& provider, KeyframeId id,
     refuse(provider, "duplicate_scan");
     return false;
   }
+  ++report_.scans_received;
   PeerCounters& c = counters_[provider];
   ++c.scans_received;
   c.scan_bytes_received += size_bytes;
@@ -453,8 +461,26 @@ std::vector<Receipt> CcirBroker::takeReceipts() {
   return receipts;
 }
 
+CcirBroker::Period CcirBroker::runPeriod(const SensorInformation& information, double now_s) {
+  Period period;
+  for (const auto& [name, peer] : peers_) {
+    if (auto offer = makeOffer(name, now_s)) period.offers.push_back(std::move(*offer));
+  }
+  period.requests = chooseRequests(information, now_s);
+  period.receipts = takeReceipts();
+  return period;
+}
+
 void CcirBroker::addControlBytes(const std::string& peer, std::size_t bytes) {
   counters_[peers_.count(peer) ? peer : std::string()].control_bytes_sent += bytes;
+}
+
+BrokerReport CcirBroker::report() const {
+  BrokerReport report = report_;
+  report.mode = params_.mode;
+  report.kept_scans = kept_.size();
+  report.peers = counters_;
+  return report;
 }
 
 void CcirBroker::setParams(const BrokerParams& params) {

@@ -14,7 +14,10 @@ std::string describe(const LoopClosureData& loop) {
 }  // namespace
 
 TeamGraphWorker::TeamGraphWorker(std::unique_ptr<TeamGraph> graph, Hooks hooks)
-    : graph_(std::move(graph)), hooks_(std::move(hooks)), thread_([this] { run(); }) {}
+    : graph_robot_(graph->robot()),
+      graph_(std::move(graph)),
+      hooks_(std::move(hooks)),
+      thread_([this] { run(); }) {}
 
 TeamGraphWorker::~TeamGraphWorker() {
   {
@@ -25,9 +28,62 @@ TeamGraphWorker::~TeamGraphWorker() {
   thread_.join();
 }
 
-void TeamGraphWorker::add(OwnKeyframe keyframe) { queue(std::move(keyframe), false); }
-void TeamGraphWorker::add(PeerKeyframe keyframe) { queue(std::move(keyframe), false); }
-void TeamGraphWorker::add(LoopClosureData loop) { queue(std::move(loop), true); }
+void TeamGraphWorker::add(const OwnKeyframe& keyframe) {
+  const std::string what = "keyframe " + std::to_string(keyframe.id) + " of '" + keyframe.robot;
+  if (keyframe.robot != graph_robot_)
+    return refuse(Refusal::kKeyframe, what + "': not this robot's");
+  if (!keyframe.odom_pose || !isValidPose(*keyframe.odom_pose)) {
+    return refuse(Refusal::kKeyframe, what + "': its pose is not finite");
+  }
+  queue(keyframe, false);
+}
+
+void TeamGraphWorker::add(const PeerKeyframe& keyframe) {
+  const std::string what = "keyframe " + std::to_string(keyframe.id) + " of '" + keyframe.robot;
+  if (keyframe.robot.empty() || keyframe.robot == graph_robot_) {
+    return refuse(Refusal::kPeerKeyframe, what + "': not a teammate's");
+  }
+  if (!keyframe.pose || !isValidPose(*keyframe.pose)) {
+    return refuse(Refusal::kPeerKeyframe, what + "': its pose is not finite");
+  }
+  queue(keyframe, false);
+}
+bool TeamGraphWorker::addOwnLoop(const LoopClosureData& loop) {
+  if (const auto problem = backend::loopClosureProblem(loop)) {
+    refuse(Refusal::kLoopClosure, describe(loop) + ": " + *problem);
+    return false;
+  }
+  switch (backend::routeOwnLoop(graph_robot_, loop)) {
+    case backend::LoopRoute::kUseAndForward:
+      queue(loop, true);
+      return true;
+    case backend::LoopRoute::kUse:
+      queue(loop, true);
+      return false;
+    default:
+      refuse(Refusal::kLoopClosure, describe(loop) + ": it does not involve this robot");
+      return false;
+  }
+}
+
+void TeamGraphWorker::addTeammateLoop(const LoopClosureData& loop) {
+  if (const auto problem = backend::loopClosureProblem(loop)) {
+    return refuse(Refusal::kTeammateLoopClosure, describe(loop) + ": " + *problem);
+  }
+  switch (backend::routeTeammateLoop(graph_robot_, loop)) {
+    case backend::LoopRoute::kUse:
+      queue(PeerKeyframe{loop.robot_from, loop.keyframe_from, *loop.odom_pose_from}, false);
+      return queue(loop, true);
+    case backend::LoopRoute::kIgnore:
+      return refuse(Refusal::kIgnoredLoopClosure, describe(loop) + ": not with this robot");
+    default:
+      refuse(Refusal::kTeammateLoopClosure, describe(loop) + ": no odom_pose_from");
+  }
+}
+
+void TeamGraphWorker::refuse(Refusal why, const std::string& text) const {
+  if (hooks_.refused) hooks_.refused(why, text);
+}
 
 void TeamGraphWorker::tick() {
   {
@@ -66,23 +122,21 @@ void TeamGraphWorker::run() {
 }
 
 void TeamGraphWorker::apply(const Input& input) {
-  const auto refuse = [this](Refusal why, const std::string& what) {
-    if (hooks_.refused) hooks_.refused(why, what);
-  };
   if (const auto* own = std::get_if<OwnKeyframe>(&input)) {
-    if (!graph_->addKeyframe(own->id, own->stamp, own->odom_pose)) {
-      refuse(Refusal::kKeyframe, "keyframe " + std::to_string(own->id));
+    if (!graph_->addKeyframe(own->id, own->stamp, *own->odom_pose)) {
+      refuse(Refusal::kKeyframe, "keyframe " + std::to_string(own->id) + ": ids must increase");
     }
   } else if (const auto* peer = std::get_if<PeerKeyframe>(&input)) {
-    if (!graph_->addPeerKeyframe(peer->robot, peer->id, peer->pose)) {
-      refuse(Refusal::kPeerKeyframe, "keyframe " + peer->robot + "/" + std::to_string(peer->id));
+    if (!graph_->addPeerKeyframe(peer->robot, peer->id, *peer->pose)) {
+      refuse(Refusal::kPeerKeyframe, "keyframe " + std::to_string(peer->id) + " of '" +
+                                         peer->robot + "': rejected by the graph");
     }
   } else {
     const auto& loop = std::get<LoopClosureData>(input);
     if (graph_->knows(loop)) {
-      refuse(Refusal::kDuplicateLoopClosure, describe(loop));
+      refuse(Refusal::kDuplicateLoopClosure, describe(loop) + ": known");
     } else if (!graph_->addLoopClosure(loop)) {
-      refuse(Refusal::kLoopClosure, describe(loop));
+      refuse(Refusal::kLoopClosure, describe(loop) + ": rejected by the graph");
     }
   }
 }

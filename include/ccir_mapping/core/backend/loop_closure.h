@@ -20,6 +20,13 @@ struct LoopClosureData {
   Matrix6 covariance = Matrix6::Identity();
   /// Keyframe "from"'s odometry pose, when the robot that found the closure sent it along.
   std::optional<Pose3> odom_pose_from;
+  /// How the finder found and verified it, for reports (the graph weighs the covariance): the
+  /// place-recognition score, the registration's mean squared distance (m^2) and inliers, and
+  /// the method ("fabmap" or "histogram").
+  double match_score = 0.0;
+  double fitness_m2 = 0.0;
+  int inliers = 0;
+  std::string method;
 };
 
 /// Why `loop` cannot enter a pose graph, or nullopt: a robot not named, a relative pose that is

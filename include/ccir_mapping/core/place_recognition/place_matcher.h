@@ -16,6 +16,7 @@
 #include <pcl/point_types.h>
 
 #include "ccir_mapping/core/backend/loop_closure.h"
+#include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
@@ -31,7 +32,8 @@ struct DescribedKeyframe {
   KeyframeId id = 0;
   Stamp stamp = 0;
   /// Own keyframes: the sensor pose from odometry and the odometry path length up to it, which
-  /// bound how far a loop closure may move it (teammates' keyframes leave them unset).
+  /// bound how far a loop closure may move it (describeOwn; teammates' keyframes leave them
+  /// unset).
   std::optional<Pose3> odom_pose;
   double path_m = 0.0;
   WordSet words;
@@ -74,10 +76,24 @@ class PlaceMatcher {
   DescribedKeyframe describe(KeyframeId id, Stamp stamp,
                              const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                              const Eigen::Vector3f& up) const;
+  /// An own keyframe, described with its odometry pose (gravity comes from it) and the odometry
+  /// path length so far (addOwnTravel), which bound how far a loop closure may move it.
+  DescribedKeyframe describeOwn(KeyframeId id, Stamp stamp,
+                                const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                                const Pose3& odom_pose) const;
+  /// Counts the odometry distance to an own keyframe (also to one that is dropped: the robot
+  /// moved all the same).
+  void addOwnTravel(double travelled_m) { path_m_ += travelled_m; }
   /// The same for features already extracted with model().features.
   DescribedKeyframe describe(KeyframeId id, Stamp stamp,
                              const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                              features::LocalFeatures features) const;
+
+  /// Why a teammate's word set cannot be used, or nullopt: made with another vocabulary (kind
+  /// "other vocabulary"), or ids not sorted, unique and below the vocabulary's size ("malformed
+  /// words").
+  std::optional<Notice> wordsProblem(const std::string& vocabulary_hash,
+                                     const WordSet& words) const;
 
   /// c_k of every local place sharing at least min_correspondences words, most first.
   std::vector<std::pair<KeyframeId, int>> correspondences(const WordSet& words) const;
@@ -128,6 +144,7 @@ class PlaceMatcher {
   std::unique_ptr<PlaceSet> kept_;  // teammates' scans
   /// Teammates' word sets by robot and keyframe.
   std::map<std::string, std::map<KeyframeId, WordSet>> teammate_words_;
+  double path_m_ = 0.0;  // odometry path length of the own keyframes so far
 };
 
 }  // namespace ccir_mapping::core::place_recognition

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
+#include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/preprocess/preprocessor_params.h"
@@ -32,6 +34,21 @@ class KeyframeStage {
     std::size_t usable_points = 0;
     /// Milliseconds spent filtering the keyframe (kKeyframe only).
     double filter_ms = 0.0;
+    /// Why the scan was dropped (see dropped()), or what is odd about a scan that was used:
+    /// non-finite points in an unorganised cloud, a keyframe the filters left empty.
+    std::vector<Notice> notices;
+
+    /// kTooFewPoints, kStampNotIncreasing or kInvalidPose: the scan goes no further.
+    bool dropped() const { return outcome != Outcome::kKeyframe && outcome != Outcome::kSkipped; }
+  };
+
+  /// A scan's arrival: refused (with why) when its stamp is not after the previous arrival's;
+  /// accepted otherwise, with what to report about scans missing before it.
+  struct Arrival {
+    bool accepted = false;
+    /// Scans the gap before it lost (ScanGapCounter).
+    std::uint64_t missing_before = 0;
+    std::vector<Notice> notices;
   };
 
   /// What the stage has done so far, for diagnostics.
@@ -48,10 +65,9 @@ class KeyframeStage {
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit KeyframeStage(const PreprocessorParams& params);
 
-  /// A scan as it arrives, before it waits for its pose: false when its stamp is not after the
-  /// previous arrival's (a bag replayed again). Sets `missing_before` to the scans the gap before
-  /// it lost (ScanGapCounter).
-  bool arrive(Stamp stamp, std::uint64_t* missing_before);
+  /// A scan as it arrives, before it waits for its pose (a stamp not after the previous
+  /// arrival's: a bag replayed again).
+  Arrival arrive(Stamp stamp);
 
   /// Offers a scan in the sensor frame with `sensor_pose`, the sensor frame in the
   /// gravity-aligned odometry frame at `stamp`. Scans come in stamp order.

@@ -73,7 +73,8 @@ class CcirBroker {
   void setUncertainty(KeyframeId id, double variance_m2);
   /// c_k of own keyframe `id` with a keyframe of `peer`; the largest seen is kept.
   void setCorrespondences(const std::string& peer, KeyframeId id, int count);
-  void setTransformKnown(const std::string& peer, bool known);
+  /// The teammate's map frame in this robot's map frame, or nullopt while it is not known.
+  void setTeamTransform(const std::string& peer, const std::optional<Pose3>& map_from_peer);
   void setLink(const std::string& peer, const LinkState& link);
 
   /// The offer to `peer` for this period, or nullopt (nothing to offer, link down or busy).
@@ -95,24 +96,37 @@ class CcirBroker {
   /// An offer from a teammate, kept until chooseRequests(); false with the reason (counted)
   /// when it is not for this robot, from a stranger or longer than max_offer_scans.
   bool onOffer(const Offer& offer, std::string* reason = nullptr);
-  /// The information (CSQMI) of an offered scan for this robot; asked only for providers whose
-  /// transform is known.
-  using OfferScorer = std::function<double(const std::string& provider, const OfferEntry& scan)>;
-  /// Requests for the offers received since the last call. A scan requested less than
-  /// receipt_timeout_s ago is not requested again (it may be on its way).
-  std::vector<Request> chooseRequests(const OfferScorer& information, double now_s);
+  /// The information (CSQMI) of a simulated sensor at a pose in this robot's map frame.
+  using SensorInformation = std::function<double(const Pose3& sensor_pose)>;
+  /// Requests for the offers received since the last call. An offered scan's information is
+  /// asked at its pose through the provider's team transform, for providers whose transform is
+  /// known. A scan requested less than receipt_timeout_s ago is not requested again (it may be
+  /// on its way).
+  std::vector<Request> chooseRequests(const SensorInformation& information, double now_s);
   /// A scan from a teammate; false for one received before (a duplicate, not acknowledged
   /// again) or from a stranger.
   bool onScanReceived(const std::string& provider, KeyframeId id, std::size_t size_bytes);
   /// ccir: the acknowledgements due (one per provider with new scans); none in other modes.
   std::vector<Receipt> takeReceipts();
 
+  /// What one offer period sends: an offer to each teammate (makeOffer), requests for the
+  /// offers received (chooseRequests), then the receipts due (takeReceipts).
+  struct Period {
+    std::vector<Offer> offers;
+    std::vector<Request> requests;
+    std::vector<Receipt> receipts;
+  };
+  Period runPeriod(const SensorInformation& information, double now_s);
+
   void addControlBytes(const std::string& peer, std::size_t bytes);
+  /// An own keyframe's word set went to the teammates.
+  void countFeaturesSent() { ++report_.features_sent; }
   /// The runtime-reconfigurable weights and fixed-rate n (mode and sizes stay).
   void setParams(const BrokerParams& params);
   const BrokerParams& params() const { return params_; }
   const std::map<std::string, PeerCounters>& counters() const { return counters_; }
-  std::size_t keptScans() const { return kept_.size(); }
+  /// What the broker did since start (BrokerStats).
+  BrokerReport report() const;
 
  private:
   struct Kept {
@@ -129,7 +143,8 @@ class CcirBroker {
     bool link_known = false;
     /// Bytes sent since the link state was last reported (not in its queue count yet).
     std::size_t unreported_bytes = 0;
-    bool transform_known = false;
+    /// The teammate's map frame in this robot's, once known.
+    std::optional<Pose3> map_from_peer;
     std::map<KeyframeId, int> correspondences;
     /// Sent (with the time) and not acknowledged yet; acknowledged.
     std::map<KeyframeId, double> unacknowledged;
@@ -162,6 +177,7 @@ class CcirBroker {
   std::map<Stamp, KeyframeId> kept_by_stamp_;
   Pose3 map_from_odom_ = Pose3::Identity();
   FixedRateSelector fixed_rate_;
+  BrokerReport report_;  // the totals; report() adds the rest
 };
 
 }  // namespace ccir_mapping::core::routing

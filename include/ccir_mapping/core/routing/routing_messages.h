@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/routing/broker_params.h"
 
 namespace ccir_mapping::core::routing {
 
@@ -67,6 +68,18 @@ struct PeerCounters {
   std::uint64_t control_bytes_sent = 0;
   /// Messages or ids refused, and scans given up, by reason.
   std::map<std::string, std::uint64_t> refused;
+};
+
+/// What the broker did since start, over all teammates and per teammate.
+struct BrokerReport {
+  std::string robot;
+  RoutingMode mode = RoutingMode::kCcir;
+  /// Own keyframes seen, word sets sent, own scans kept for requests.
+  std::uint64_t keyframes = 0, features_sent = 0;
+  std::size_t kept_scans = 0;
+  /// Scan messages sent (one to all teammates counts once) and received.
+  std::uint64_t scans_sent = 0, scans_received = 0;
+  std::map<std::string, PeerCounters> peers;
 };
 
 }  // namespace ccir_mapping::core::routing

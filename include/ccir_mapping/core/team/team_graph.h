@@ -37,19 +37,27 @@ struct BackendSnapshot {
   std::vector<KeyframeId> ids;
   std::vector<Stamp> stamps;
   std::vector<Pose3> poses;
-  /// The newest keyframe's odometry pose (map -> odom = poses.back() * odom_pose^-1).
+  /// The newest keyframe's odometry pose.
   Pose3 latest_odom_pose = Pose3::Identity();
   std::vector<TeamEstimate> team;
   std::vector<LoopLine> loop_lines;
   int intra_loops = 0;
   int intra_loops_rejected = 0;
   double solve_s = 0.0;
+
+  /// The odometry frame in the map frame: the correction the newest optimisation makes to
+  /// odometry (identity while there is no keyframe).
+  Pose3 mapFromOdom() const {
+    return poses.empty() ? Pose3::Identity() : Pose3(poses.back() * latest_odom_pose.inverse());
+  }
 };
 
 class TeamGraph {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors.
   TeamGraph(std::string robot, const backend::BackendParams& params);
+
+  const std::string& robot() const { return robot_; }
 
   /// This robot's keyframes, in id order (ids increasing), with their odometry poses.
   /// Returns false (and changes nothing) for a non-increasing id or an invalid pose.

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <variant>
@@ -18,21 +19,28 @@ namespace ccir_mapping::core::team {
 
 class TeamGraphWorker {
  public:
+  /// This robot's keyframe with its odometry pose (unset when its message had no valid one).
   struct OwnKeyframe {
+    std::string robot;
     KeyframeId id = 0;
     Stamp stamp = 0;
-    Pose3 odom_pose = Pose3::Identity();
+    std::optional<Pose3> odom_pose;
   };
+  /// A teammate's keyframe with its pose in the teammate's frame (unset: none valid).
   struct PeerKeyframe {
     std::string robot;
     KeyframeId id = 0;
-    Pose3 pose = Pose3::Identity();
+    std::optional<Pose3> pose;
   };
-  /// What the graph did not take.
+  /// What the graph, or the rules before it (core/backend/loop_closure.h), did not take.
   enum class Refusal {
-    kKeyframe,              ///< an own keyframe whose id does not increase, or invalid
-    kPeerKeyframe,          ///< a teammate's keyframe the graph rejected
-    kLoopClosure,           ///< a loop closure the graph rejected (e.g. a keyframe to itself)
+    kKeyframe,      ///< not this robot's, without a valid pose, or an id that does not increase
+    kPeerKeyframe,  ///< not a teammate's, without a valid pose, or rejected by the graph
+    /// A closure this robot found: unusable, not with this robot, or rejected by the graph.
+    kLoopClosure,
+    /// A closure a teammate sent: unusable, or without its keyframe's odometry pose.
+    kTeammateLoopClosure,
+    kIgnoredLoopClosure,    ///< a teammate's closure between others, or this robot's coming back
     kDuplicateLoopClosure,  ///< one it has (the teammate found and sent it too)
   };
   struct Hooks {
@@ -43,7 +51,8 @@ class TeamGraphWorker {
     /// After each optimisation, on the worker's thread; the graph may be asked more (e.g.
     /// positionVariances) until it returns.
     std::function<void(const BackendSnapshot&, const TeamGraph&)> optimized;
-    /// A refused input, with what it was ("keyframe 12", "loop closure a/3 -> b/7").
+    /// A refused input, saying what it was and why ("keyframe 12: ids must increase"); on the
+    /// caller's thread or the worker's.
     std::function<void(Refusal, const std::string&)> refused;
   };
 
@@ -51,10 +60,14 @@ class TeamGraphWorker {
   /// Stops the worker; inputs not applied yet are dropped.
   ~TeamGraphWorker();
 
-  void add(OwnKeyframe keyframe);
-  void add(PeerKeyframe keyframe);
-  /// Optimises as soon as the worker is free.
-  void add(backend::LoopClosureData loop);
+  void add(const OwnKeyframe& keyframe);
+  void add(const PeerKeyframe& keyframe);
+  /// A closure this robot's Matcher found, optimised as soon as the worker is free; true when
+  /// it goes to the teammates too (backend::routeOwnLoop).
+  bool addOwnLoop(const backend::LoopClosureData& loop);
+  /// A closure a teammate found, with its keyframe and that keyframe's odometry pose
+  /// (backend::routeTeammateLoop).
+  void addTeammateLoop(const backend::LoopClosureData& loop);
   /// Optimises if anything arrived since the last optimisation.
   void tick();
 
@@ -63,7 +76,9 @@ class TeamGraphWorker {
   void queue(Input input, bool urgent);
   void run();
   void apply(const Input& input);
+  void refuse(Refusal why, const std::string& text) const;
 
+  const std::string graph_robot_;     // whose graph it is
   std::unique_ptr<TeamGraph> graph_;  // the worker's
   Hooks hooks_;
   std::mutex mutex_;  // guards what callers hand to the worker

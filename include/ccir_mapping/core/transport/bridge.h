@@ -1,10 +1,11 @@
 // The bridge's network side (no ROS): one PeerSession per configured teammate, carried over TCP
-// with Boost.Asio on a thread of its own. Listens on listen_port; of two robots the one whose
-// name sorts first dials (a robot that does not listen dials everyone), redialling with
-// exponential backoff. An accepted connection is matched to its peer by its first frame, an
-// authenticated HELLO. Links share the total budget and take turns a frame at a time. A link
-// silent for peer_timeout_s is closed. Nothing a peer sends can stop the thread: a refused
-// stream closes its connection and is counted by reason.
+// with Boost.Asio on a thread of its own, in two stages (src/core/transport): BridgeConnections
+// listens on listen_port, dials (of two robots the one whose name sorts first; a robot that
+// does not listen dials everyone) and redials with exponential backoff, and matches an accepted
+// connection to its peer by its first frame, an authenticated HELLO; BridgePump moves bytes
+// between sockets and sessions, the links sharing the total budget and taking turns a frame at a
+// time, and closes a link silent for peer_timeout_s. Nothing a peer sends can stop the thread: a
+// refused stream closes its connection and is counted by reason.
 #pragma once
 
 #include <cstdint>

@@ -14,7 +14,7 @@ namespace mrpt::hwdrivers {
 class CVelodyneScanner;
 }
 
-namespace ccir_mapping::core::preprocess {
+namespace ccir_mapping::core::velodyne {
 
 class VelodynePcapReader {
  public:
@@ -43,4 +43,4 @@ class VelodynePcapReader {
   std::optional<std::uint32_t> first_packet_us_;
 };
 
-}  // namespace ccir_mapping::core::preprocess
+}  // namespace ccir_mapping::core::velodyne

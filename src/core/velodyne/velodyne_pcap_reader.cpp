@@ -1,4 +1,4 @@
-#include "ccir_mapping/core/preprocess/velodyne_pcap_reader.h"
+#include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -10,7 +10,7 @@
 #include <mrpt/obs/CObservationVelodyneScan.h>
 #include <mrpt/obs/VelodyneCalibration.h>
 
-namespace ccir_mapping::core::preprocess {
+namespace ccir_mapping::core::velodyne {
 namespace {
 
 constexpr std::int64_t kMicrosecondsPerHour = 3600LL * 1000000LL;
@@ -95,4 +95,4 @@ std::optional<LidarScan> VelodynePcapReader::next() {
   }
 }
 
-}  // namespace ccir_mapping::core::preprocess
+}  // namespace ccir_mapping::core::velodyne

@@ -1,0 +1,84 @@
+// The Mapper's stage: what a robot's occupancy map is made of (KeyframeMap) and the map itself
+// (a SharedMap, which the Broker reads in process). Placed scans are integrated at once. When the
+// optimised poses or a team transform have moved enough, rebuildIfDue() builds a fresh map at the
+// current poses on a thread of its own and swaps it in; scans placed meanwhile go into both maps,
+// so none is lost.
+#pragma once
+
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ccir_mapping/core/information/keyframe_map.h"
+#include "ccir_mapping/core/information/mapper_params.h"
+#include "ccir_mapping/core/information/shared_map.h"
+
+namespace ccir_mapping::core::information {
+
+class MapStage {
+ public:
+  /// What the map holds, for MapStats.
+  struct Stats {
+    double entropy_bits = 0.0;
+    double known_volume_m3 = 0.0;
+    std::size_t keyframes = 0;
+    std::size_t peer_scans = 0;
+    std::size_t pending_peer_scans = 0;
+    std::uint32_t rebuilds = 0;
+  };
+  /// Runs a piece of map work (integrating scans, a rebuild) and lets the caller measure it;
+  /// `rebuilt` reports each finished rebuild (its scans and wall seconds) on the rebuild thread.
+  struct Hooks {
+    std::function<void(const char* stage, const std::function<void()>& work)> run =
+        [](const char*, const std::function<void()>& work) { work(); };
+    std::function<void(std::size_t scans, double seconds)> rebuilt;
+  };
+
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  MapStage(const MapperParams& params, Hooks hooks);
+  explicit MapStage(const MapperParams& params);
+  /// Waits for a rebuild under way.
+  ~MapStage();
+  MapStage(const MapStage&) = delete;
+  MapStage& operator=(const MapStage&) = delete;
+
+  const std::shared_ptr<SharedMap>& map() const { return map_; }
+
+  /// An own keyframe (sensor frame) with its odometry pose.
+  void addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose);
+  /// A teammate's scan with its pose in the teammate's frame, placed once the team transform is
+  /// known; false (nothing changes) when the map holds it already.
+  bool addPeer(const std::string& robot, KeyframeId id, std::shared_ptr<const Cloud> cloud,
+               const Pose3& peer_pose);
+  void setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
+  void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
+
+  /// Starts a rebuild when one is due and none is under way; true when it started.
+  bool rebuildIfDue();
+  /// Returns once no rebuild is under way.
+  void waitForRebuild();
+  /// Writes the map (OctoMap .bt) as it is once a rebuild under way is done; false when the
+  /// file cannot be written.
+  bool save(const std::string& path);
+  Stats stats() const;
+
+ private:
+  void insert(const std::vector<PlacedScan>& scans);
+
+  const MapperParams params_;
+  const Hooks hooks_;
+  std::shared_ptr<SharedMap> map_;
+  mutable std::mutex mutex_;  // guards what follows
+  KeyframeMap keyframes_;
+  bool rebuilding_ = false;
+  std::condition_variable rebuild_done_;
+  std::vector<PlacedScan> placed_during_rebuild_;
+  std::uint32_t rebuilds_ = 0;
+  std::thread rebuild_thread_;
+};
+
+}  // namespace ccir_mapping::core::information

@@ -1,0 +1,110 @@
+#include "ccir_mapping/core/information/map_stage.h"
+
+#include <chrono>
+
+namespace ccir_mapping::core::information {
+
+MapStage::MapStage(const MapperParams& params, Hooks hooks)
+    : params_(params),
+      hooks_(std::move(hooks)),
+      map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
+      keyframes_(params) {}
+
+MapStage::MapStage(const MapperParams& params) : MapStage(params, Hooks{}) {}
+
+MapStage::~MapStage() {
+  if (rebuild_thread_.joinable()) rebuild_thread_.join();
+}
+
+void MapStage::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  insert({keyframes_.addOwn(stamp, std::move(cloud), odom_pose)});
+}
+
+bool MapStage::addPeer(const std::string& robot, KeyframeId id, std::shared_ptr<const Cloud> cloud,
+                       const Pose3& peer_pose) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (keyframes_.holdsPeer(robot, id)) return false;
+  insert(keyframes_.addPeer(robot, id, std::move(cloud), peer_pose));
+  return true;
+}
+
+void MapStage::setTeamTransform(const std::string& robot, const Pose3& map_from_peer) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  insert(keyframes_.setTeamTransform(robot, map_from_peer));
+}
+
+void MapStage::setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  keyframes_.setOptimizedPoses(poses);
+}
+
+// Holds mutex_: a rebuild swaps its map in under it, so a scan lands in the old map before the
+// swap and is kept for the new one, or in the new one after it.
+void MapStage::insert(const std::vector<PlacedScan>& scans) {
+  if (scans.empty()) return;
+  hooks_.run("insert", [&] {
+    map_->write([&](OccupancyMap& map) {
+      for (const auto& scan : scans) map.insert(*scan.cloud, scan.map_from_sensor);
+    });
+  });
+  if (rebuilding_)
+    placed_during_rebuild_.insert(placed_during_rebuild_.end(), scans.begin(), scans.end());
+}
+
+bool MapStage::rebuildIfDue() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (rebuilding_ || !keyframes_.rebuildDue()) return false;
+  if (rebuild_thread_.joinable()) rebuild_thread_.join();
+  rebuilding_ = true;
+  rebuild_thread_ = std::thread([this, scans = keyframes_.placeAll()] {
+    const auto start = std::chrono::steady_clock::now();
+    auto fresh = std::make_unique<OccupancyMap>(params_);
+    hooks_.run("rebuild", [&] {
+      for (const auto& scan : scans) fresh->insert(*scan.cloud, scan.map_from_sensor);
+    });
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& scan : placed_during_rebuild_)
+        fresh->insert(*scan.cloud, scan.map_from_sensor);
+      placed_during_rebuild_.clear();
+      map_->replace(std::move(fresh));
+      rebuilding_ = false;
+      ++rebuilds_;
+    }
+    rebuild_done_.notify_all();
+    if (hooks_.rebuilt) {
+      hooks_.rebuilt(
+          scans.size(),
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+  });
+  return true;
+}
+
+void MapStage::waitForRebuild() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  rebuild_done_.wait(lock, [this] { return !rebuilding_; });
+}
+
+bool MapStage::save(const std::string& path) {
+  waitForRebuild();
+  return map_->write([&](OccupancyMap& map) { return map.save(path); });
+}
+
+MapStage::Stats MapStage::stats() const {
+  Stats stats;
+  map_->read([&](const OccupancyMap& map) {
+    stats.entropy_bits = map.boxEntropyBits();
+    stats.known_volume_m3 = map.boxKnownVolumeM3();
+    return 0;
+  });
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats.keyframes = keyframes_.ownKeyframes();
+  stats.peer_scans = keyframes_.peerScans();
+  stats.pending_peer_scans = keyframes_.pendingPeerScans();
+  stats.rebuilds = rebuilds_;
+  return stats;
+}
+
+}  // namespace ccir_mapping::core::information
