@@ -22,8 +22,7 @@ using topic_tools::ShapeShifter;
 
 class BridgeNodelet final : public PipelineNodelet {
  private:
-  /// A new inbox topic holds its first messages this long, so subscribers in other processes
-  /// have connected before they go out.
+  /// A new inbox topic holds its first messages this long, while subscribers connect.
   static constexpr double kNewTopicHoldS = 0.5;
 
   void onInit() override {
@@ -40,8 +39,11 @@ class BridgeNodelet final : public PipelineNodelet {
           [this](bool warning, const std::string& text) {
             // A link comes up at most once per redial (>= reconnect_min_s); refusals can come
             // as fast as a stranger connects.
-            if (warning) NODELET_WARN_THROTTLE(1.0, "%s", text.c_str());
-            if (!warning) NODELET_INFO("%s", text.c_str());
+            if (warning) {
+              NODELET_WARN_THROTTLE(1.0, "%s", text.c_str());
+            } else {
+              NODELET_INFO("%s", text.c_str());
+            }
           },
           clock());
       bridge_->start();
@@ -50,14 +52,12 @@ class BridgeNodelet final : public PipelineNodelet {
       return failConfiguration(e.what());
     }
     advertise<LinkStats>(topics::kLinkStats, topics::kMessageQueueSize);
-    std::vector<std::string> peers;
-    for (const auto& peer : settings_.core.peers) peers.push_back(peer.name);
     for (const auto& forwarded : settings_.core.topics) {
-      for (const auto& route : topics::outboxRoutes(forwarded.topic, peers)) {
+      for (const auto& route : topics::outboxRoutes(forwarded.topic, settings_.core.peerNames())) {
         subscribeOutbox(forwarded, route);
       }
     }
-    if (peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
+    if (settings_.core.peers.empty()) NODELET_INFO("no peers configured: nothing is sent");
     createPeriodicTimer(settings_.core.stats_period_s, [this] { publishStats(); });
     flush_timer_ = getNodeHandle().createSteadyTimer(ros::WallDuration(0.1), [this](const auto&) {
       inboxes_->flush(ros::WallTime::now().toSec());

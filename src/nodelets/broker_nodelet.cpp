@@ -22,13 +22,12 @@ class BrokerNodelet final : public PipelineNodelet {
 
   void onInit() override {
     if (!loadSettings(settings_)) return;
-    std::vector<std::string> peers;  // the Bridge's
-    for (const auto& peer : siblingSettings<ros_params::BridgeSettings>("bridge").core.peers) {
-      peers.push_back(peer.name);
-      advertise<SharedScan>(topics::outboxTo(peer.name, "scans"), topics::kKeyframeQueueSize);
-      advertise<ScanOffer>(topics::outboxTo(peer.name, "offers"), topics::kMessageQueueSize);
-      advertise<ScanRequest>(topics::outboxTo(peer.name, "requests"), topics::kMessageQueueSize);
-      advertise<ScanReceipt>(topics::outboxTo(peer.name, "receipts"), topics::kMessageQueueSize);
+    const auto peers = siblingSettings<ros_params::BridgeSettings>("bridge").core.peerNames();
+    for (const auto& peer : peers) {
+      advertise<SharedScan>(topics::outboxTo(peer, "scans"), topics::kKeyframeQueueSize);
+      advertise<ScanOffer>(topics::outboxTo(peer, "offers"), topics::kMessageQueueSize);
+      advertise<ScanRequest>(topics::outboxTo(peer, "requests"), topics::kMessageQueueSize);
+      advertise<ScanReceipt>(topics::outboxTo(peer, "receipts"), topics::kMessageQueueSize);
     }
     stage_ = std::make_unique<Stage>(settings_.frames.robot_name, peers, settings_.core,
                                      siblingSettings<ros_params::MapperSettings>("mapper").core);

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,9 +15,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace alignment = ccir_mapping::core::alignment;
+namespace tools = ccir_mapping::tools;
 
 namespace {
 
@@ -72,44 +75,41 @@ void draw(const std::vector<Point>& points, const std::string& path) {
   cv::imwrite(path, image);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   std::string png;
   int seeds = 5;
   int inliers = 20;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
   po::options_description options(
       "Usage: bench_alignment [--png FILE] [--seeds N] [--inliers N]\nPrints JSON.\n\nOptions");
-  options.add_options()("help,h", "print this help and exit")("png", po::value<std::string>(&png),
-                                                              "also draw the curve into this PNG")(
-      "seeds", po::value<int>(&seeds)->default_value(seeds), "runs per outlier ratio")(
-      "inliers", po::value<int>(&inliers)->default_value(inliers), "true candidates per run");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "bench_alignment: " << e.what() << '\n';
-    return 2;
+  options.add_options()("help,h", "print this help and exit")(
+      "png", po::value<std::string>(&o->png), "also draw the curve into this PNG")(
+      "seeds", po::value<int>(&o->seeds)->default_value(o->seeds), "runs per outlier ratio")(
+      "inliers", po::value<int>(&o->inliers)->default_value(o->inliers), "true candidates per run");
+  if (const auto exit_code = tools::parseCommandLine("bench_alignment", options, argc, argv)) {
+    return exit_code;
   }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (o->seeds < 1 || o->inliers < 1) {
+    return tools::usageError("bench_alignment", "--seeds and --inliers must be >= 1");
   }
-  if (seeds < 1 || inliers < 1) {
-    std::cerr << "bench_alignment: --seeds and --inliers must be >= 1\n";
-    return 2;
-  }
+  return std::nullopt;
+}
+
+/// The curve: for each outlier ratio, how often and how well the EM found the transform.
+std::vector<Point> run(const Options& o) {
   std::vector<Point> points;
   for (double ratio : {0.0, 0.2, 0.4, 0.6, 0.8, 0.9, 0.95, 0.98, 0.99}) {
-    const int outliers = static_cast<int>(std::lround(inliers * ratio / (1.0 - ratio)));
+    const int outliers = static_cast<int>(std::lround(o.inliers * ratio / (1.0 - ratio)));
     std::vector<double> translation;
     double worst_rotation = 0.0;
     int found = 0;
     const auto start = std::chrono::steady_clock::now();
-    for (int seed = 1; seed <= seeds; ++seed) {
+    for (int seed = 1; seed <= o.seeds; ++seed) {
       alignment::SyntheticSpec spec;
-      spec.inliers = inliers;
+      spec.inliers = o.inliers;
       spec.outliers = outliers;
       spec.seed = static_cast<unsigned>(seed);
       const auto s = alignment::makeSyntheticCandidates(spec);
@@ -127,15 +127,19 @@ int main(int argc, char** argv) {
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
             .count() /
-        seeds;
+        o.seeds;
     std::sort(translation.begin(), translation.end());
-    points.push_back({ratio, outliers, double(found) / seeds, translation[translation.size() / 2],
+    points.push_back({ratio, outliers, double(found) / o.seeds, translation[translation.size() / 2],
                       translation.back(), worst_rotation, ms});
   }
+  return points;
+}
+
+void report(const Options& o, const std::vector<Point>& points) {
   std::printf(
       "{\n  \"benchmark\": \"alignment\",\n  \"inliers\": %d,\n  \"seeds\": %d,\n"
       "  \"noise\": {\"translation_m\": 0.1, \"rotation_deg\": 1.0},\n  \"curve\": [\n",
-      inliers, seeds);
+      o.inliers, o.seeds);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Point& p = points[i];
     std::printf(
@@ -146,6 +150,11 @@ int main(int argc, char** argv) {
         p.worst_rotation_deg, p.ms, i + 1 < points.size() ? "," : "");
   }
   std::printf("  ]\n}\n");
-  if (!png.empty()) draw(points, png);
-  return 0;
+  if (!o.png.empty()) draw(points, o.png);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return tools::runTool("bench_alignment", argc, argv, parse, run, report);
 }

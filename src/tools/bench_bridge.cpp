@@ -20,8 +20,10 @@
 
 #include "ccir_mapping/core/transport/bridge.h"
 #include "ccir_mapping/core/transport/link_proxy.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
+namespace tools = ccir_mapping::tools;
 using namespace ccir_mapping::core::transport;
 using Clock = std::chrono::steady_clock;
 
@@ -172,21 +174,12 @@ int main(int argc, char** argv) {
       "bytes per scan (random: incompressible)")(
       "scan-hz", po::value<double>(&o.scan_hz)->default_value(o.scan_hz), "scans per second")(
       "compress", po::bool_switch(&o.compress), "zstd the scans");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "bench_bridge: " << e.what() << "\n" << options << "\n";
-    return 2;
-  }
-  if (arguments.count("help")) {
-    std::cout << options << "\n";
-    return 0;
+  if (const auto exit_code = tools::parseCommandLine("bench_bridge", options, argc, argv)) {
+    return *exit_code;
   }
   if (o.duration_s < 5.0) {
-    std::cerr << "bench_bridge: --duration-s must be at least 5 (3 s of burst are skipped)\n";
-    return 2;
+    return tools::usageError("bench_bridge",
+                             "--duration-s must be at least 5 (3 s of burst are skipped)");
   }
   const Result with = run(o, true);
   const Result baseline = run(o, false);

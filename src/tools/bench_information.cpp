@@ -9,7 +9,7 @@
 // <= 100 ms with 500 kept keyframes and 2 peers, requests <= 50 ms.
 #include <chrono>
 #include <cstdio>
-#include <iostream>
+#include <optional>
 #include <random>
 
 #include <boost/program_options.hpp>
@@ -20,11 +20,13 @@
 #include "ccir_mapping/core/routing/ccir_broker.h"
 #include "ccir_mapping/core/simulation/lidar_model.h"
 #include "ccir_mapping/core/simulation/world_builder.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
 namespace info = core::information;
 namespace sim = core::simulation;
+namespace tools = ccir_mapping::tools;
 
 namespace {
 
@@ -71,117 +73,134 @@ std::vector<Keyframe> keyframes(const sim::World& world, int count, unsigned see
   return result;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   int candidates = 500;
   int choose = 10;
   int held = 20;
   int block_levels = 3;
-  info::MapperParams params;
+  info::MapperParams map;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
   po::options_description options("Usage: bench_information [options]\nPrints JSON.\n\nOptions",
                                   100);
   options.add_options()("help,h", "print this help and exit")(
-      "candidates", po::value<int>(&candidates)->default_value(candidates), "L: keyframes to rank")(
-      "choose", po::value<int>(&choose)->default_value(choose), "N: keyframes to choose")(
-      "held", po::value<int>(&held)->default_value(held),
+      "candidates", po::value<int>(&o->candidates)->default_value(o->candidates),
+      "L: keyframes to rank")("choose", po::value<int>(&o->choose)->default_value(o->choose),
+                              "N: keyframes to choose")(
+      "held", po::value<int>(&o->held)->default_value(o->held),
       "keyframes the receiver is believed to hold already")(
-      "block-levels", po::value<int>(&block_levels)->default_value(block_levels),
+      "block-levels", po::value<int>(&o->block_levels)->default_value(o->block_levels),
       "the ranking counts coverage in blocks of 2^this voxels a side")(
-      "resolution-m", po::value<double>(&params.resolution_m)->default_value(params.resolution_m),
+      "resolution-m", po::value<double>(&o->map.resolution_m)->default_value(o->map.resolution_m),
       "map resolution [m]");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "bench_information: " << e.what() << '\n';
-    return 2;
+  if (const auto exit_code = tools::parseCommandLine("bench_information", options, argc, argv)) {
+    return exit_code;
   }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (o->candidates < 1 || o->choose < 1 || o->held < 0 || !o->map.validate().empty()) {
+    return tools::usageError("bench_information",
+                             "need --candidates, --choose >= 1, --held >= 0 and a valid "
+                             "--resolution-m");
   }
-  if (candidates < 1 || choose < 1 || held < 0 || !params.validate().empty()) {
-    std::cerr << "bench_information: need --candidates, --choose >= 1, --held >= 0 and a valid "
-                 "--resolution-m\n";
-    return 2;
-  }
-  sim::WorldParams world_params;
-  world_params.mine_pillars_x = 3;
-  world_params.mine_pillars_y = 3;
-  const sim::World world = sim::buildWorld(world_params, 7);
-  const auto frames = keyframes(world, candidates + held, 5);
+  return std::nullopt;
+}
 
-  // The receiver's believed map: the first `held` keyframes.
-  info::OccupancyMap map(params);
-  double insert_ms = 0;
+/// Milliseconds per operation, and what the ranking and routing chose.
+struct Results {
+  double points_per_keyframe = 0, insert_ms = 0;
+  double scan_mi_ms = 0, simulated_mi_ms = 0, gains_ms = 0, blocks_per_keyframe = 0;
+  std::size_t scan_mi_beams = 0;
+  double naive_ms = 0, lazy_ms = 0;
+  std::size_t naive_evaluations = 0, lazy_evaluations = 0;
+  bool same_choice = false;
+  double footprint_ms = 0, offer_ms = 0, requests_ms = 0;
+  std::size_t offered = 0, offered_to_requester = 0, requested = 0;
+};
+
+/// The map's costs on `frames`: the first `held` make the receiver's map, the rest are the
+/// candidates.
+void measureMap(const Options& o, const std::vector<Keyframe>& frames, info::OccupancyMap& map,
+                Results& r) {
   std::size_t points = 0;
-  for (int i = 0; i < held; ++i) {
+  for (int i = 0; i < o.held; ++i) {
     const auto start = std::chrono::steady_clock::now();
     map.insert(frames[i].sensor_points, frames[i].pose);  // the Mapper's call
-    insert_ms += millisecondsSince(start);
+    r.insert_ms += millisecondsSince(start);
     points += frames[i].world_points.size();
   }
-
+  if (o.held > 0) {
+    r.points_per_keyframe = double(points) / o.held;
+    r.insert_ms /= o.held;
+  }
   // Per candidate: mutual information of its beams, of a simulated measurement at its pose,
   // and the voxel gains the ranking needs (the update and the entropy drop of each voxel).
-  double scan_mi_ms = 0;
-  double simulated_mi_ms = 0;
-  double gains_ms = 0;
   std::vector<std::vector<info::VoxelGain>> gains;
-  for (int i = held; i < held + candidates; ++i) {
+  for (int i = o.held; i < o.held + o.candidates; ++i) {
     auto start = std::chrono::steady_clock::now();
     volatile double mi = map.scanCsqmi(frames[i].world_points, frames[i].pose.translation());
-    scan_mi_ms += millisecondsSince(start);
+    r.scan_mi_ms += millisecondsSince(start);
     start = std::chrono::steady_clock::now();
     mi = map.simulatedCsqmi(frames[i].pose);
-    simulated_mi_ms += millisecondsSince(start);
+    r.simulated_mi_ms += millisecondsSince(start);
     (void)mi;
     start = std::chrono::steady_clock::now();
     gains.push_back(info::coarsened(
         map.voxelGains(map.computeUpdate(frames[i].world_points, frames[i].pose.translation())),
-        block_levels));
-    gains_ms += millisecondsSince(start);
+        o.block_levels));
+    r.gains_ms += millisecondsSince(start);
+    r.blocks_per_keyframe += double(gains.back().size());
   }
-  std::size_t voxels = 0;
-  for (const auto& g : gains) voxels += g.size();
+  const double n = o.candidates;
+  r.scan_mi_ms /= n;
+  r.simulated_mi_ms /= n;
+  r.gains_ms /= n;
+  r.blocks_per_keyframe /= n;
+  r.scan_mi_beams =
+      frames[o.held].world_points.size() / static_cast<std::size_t>(o.map.scan_beam_step);
 
   const info::ScanRanker ranker(gains);
   auto start = std::chrono::steady_clock::now();
-  const auto naive = ranker.rankNaive(static_cast<std::size_t>(choose));
-  const double naive_ms = millisecondsSince(start);
-  const std::size_t naive_evaluations = ranker.evaluations();
+  const auto naive = ranker.rankNaive(static_cast<std::size_t>(o.choose));
+  r.naive_ms = millisecondsSince(start);
+  r.naive_evaluations = ranker.evaluations();
   start = std::chrono::steady_clock::now();
-  const auto lazy = ranker.rankLazy(static_cast<std::size_t>(choose));
-  const double lazy_ms = millisecondsSince(start);
-  bool same = naive.size() == lazy.size();
-  for (std::size_t i = 0; same && i < naive.size(); ++i) same = naive[i].index == lazy[i].index;
+  const auto lazy = ranker.rankLazy(static_cast<std::size_t>(o.choose));
+  r.lazy_ms = millisecondsSince(start);
+  r.lazy_evaluations = ranker.evaluations();
+  r.same_choice = naive.size() == lazy.size();
+  for (std::size_t i = 0; r.same_choice && i < naive.size(); ++i) {
+    r.same_choice = naive[i].index == lazy[i].index;
+  }
+}
 
-  // CCIR: every keyframe kept with its footprint; teammate robot_c already holds the first
-  // quarter.
+/// CCIR's costs: every keyframe kept with its footprint; teammate robot_c already holds the
+/// first quarter; the requester scores an offer of 10 on `map`.
+void measureRouting(const Options& o, const std::vector<Keyframe>& frames,
+                    const info::OccupancyMap& map, Results& r) {
+  const int kept = o.held + o.candidates;
   core::routing::CcirBroker broker("robot_a", {"robot_b", "robot_c"},
                                    core::routing::BrokerParams{});
-  const info::OccupancyMap empty(params);
-  double footprint_ms = 0;
-  for (int i = 0; i < held + candidates; ++i) {
+  const info::OccupancyMap empty(o.map);
+  for (int i = 0; i < kept; ++i) {
     pcl::PointCloud<pcl::PointXYZ> sensor;
     const core::Pose3 to_sensor = frames[i].pose.inverse();
     for (const auto& p : frames[i].world_points) {
       const Eigen::Vector3d q = to_sensor * p.getVector3fMap().cast<double>();
       sensor.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
     }
-    start = std::chrono::steady_clock::now();
+    const auto start = std::chrono::steady_clock::now();
     auto footprint = core::routing::CcirBroker::footprint(empty, sensor, frames[i].pose);
-    footprint_ms += millisecondsSince(start);
+    r.footprint_ms += millisecondsSince(start);
     broker.addKeyframe(i, i, frames[i].pose, 60000, std::move(footprint));
     broker.setCorrespondences("robot_b", i, i % 7);
   }
+  r.footprint_ms /= kept;
   const core::routing::LinkState link{true, 150000.0, 300000.0, 0};
   broker.setLink("robot_c", link);
   const auto first = broker.makeOffer("robot_c", 0.0);
-  core::routing::Request take{"robot_c", "robot_a", first->sequence, {}};
-  for (int round = 0; round < (held + candidates) / 4 && first; ++round) {
+  core::routing::Request take{"robot_c", "robot_a", first ? first->sequence : 0, {}};
+  for (int round = 0; round < kept / 4 && first; ++round) {
     broker.setLink("robot_c", link);
     const auto offer = broker.makeOffer("robot_c", 0.0);
     if (!offer) break;
@@ -189,14 +208,12 @@ int main(int argc, char** argv) {
     take.ids = {offer->scans.front().id};
     broker.onRequest(take, 0.0);
   }
-  double offer_ms = 0;
-  std::size_t offered = 0;
   for (const char* peer : {"robot_b", "robot_c"}) {
     broker.setLink(peer, link);
-    start = std::chrono::steady_clock::now();
+    const auto start = std::chrono::steady_clock::now();
     const auto offer = broker.makeOffer(peer, 1.0);
-    offer_ms += millisecondsSince(start);
-    offered += offer ? offer->scans.size() : 0;
+    r.offer_ms += millisecondsSince(start) / 2;
+    r.offered += offer ? offer->scans.size() : 0;
   }
   core::routing::CcirBroker requester("robot_b", {"robot_a"}, core::routing::BrokerParams{});
   requester.setLink("robot_a", link);
@@ -205,18 +222,34 @@ int main(int argc, char** argv) {
   for (int i = 0; i < 10; ++i) {
     core::routing::OfferEntry entry;
     entry.id = i;
-    entry.pose = frames[held + i].pose;
+    entry.pose = frames[o.held + i].pose;
     entry.correspondences = i;
     entry.size_bytes = 60000;
     offer.scans.push_back(entry);
   }
   requester.onOffer(offer);
-  start = std::chrono::steady_clock::now();
+  const auto start = std::chrono::steady_clock::now();
   const auto requests = requester.chooseRequests(
       [&](const core::Pose3& sensor_pose) { return map.simulatedCsqmi(sensor_pose); }, 0.0);
-  const double requests_ms = millisecondsSince(start);
+  r.requests_ms = millisecondsSince(start);
+  r.offered_to_requester = offer.scans.size();
+  r.requested = requests.empty() ? 0 : requests.front().ids.size();
+}
 
-  const double n = candidates;
+Results run(const Options& o) {
+  sim::WorldParams world_params;
+  world_params.mine_pillars_x = 3;
+  world_params.mine_pillars_y = 3;
+  const sim::World world = sim::buildWorld(world_params, 7);
+  const auto frames = keyframes(world, o.candidates + o.held, 5);
+  Results r;
+  info::OccupancyMap map(o.map);  // the receiver's believed map
+  measureMap(o, frames, map, r);
+  measureRouting(o, frames, map, r);
+  return r;
+}
+
+void report(const Options& o, const Results& r) {
   std::printf(
       "{\n  \"benchmark\": \"information\",\n  \"resolution_m\": %.2f,\n"
       "  \"points_per_keyframe\": %.0f,\n  \"insert_ms_per_keyframe\": %.1f,\n"
@@ -230,14 +263,20 @@ int main(int argc, char** argv) {
       "\"offer_ms_per_peer\": %.1f, \"offer_target_ms\": 100, \"scans_offered\": %zu, "
       "\"requests_ms\": %.1f, \"requests_target_ms\": 50, \"offered_to_requester\": %zu, "
       "\"requested\": %zu}\n}\n",
-      params.resolution_m, held ? double(points) / held : 0.0, held ? insert_ms / held : 0.0,
-      scan_mi_ms / n,
-      frames[held].world_points.size() / static_cast<std::size_t>(params.scan_beam_step),
-      simulated_mi_ms / n,
-      static_cast<int>(16 * std::ceil(360 / params.simulated_azimuth_step_deg)), gains_ms / n,
-      voxels / n, choose, candidates, naive_ms, lazy_ms, naive_ms / lazy_ms, naive_evaluations,
-      ranker.evaluations(), same ? "true" : "false", held + candidates,
-      footprint_ms / (held + candidates), offer_ms / 2, offered, requests_ms, offer.scans.size(),
-      requests.empty() ? std::size_t{0} : requests.front().ids.size());
-  return same ? 0 : 1;
+      o.map.resolution_m, r.points_per_keyframe, r.insert_ms, r.scan_mi_ms, r.scan_mi_beams,
+      r.simulated_mi_ms, static_cast<int>(16 * std::ceil(360 / o.map.simulated_azimuth_step_deg)),
+      r.gains_ms, r.blocks_per_keyframe, o.choose, o.candidates, r.naive_ms, r.lazy_ms,
+      r.naive_ms / r.lazy_ms, r.naive_evaluations, r.lazy_evaluations,
+      r.same_choice ? "true" : "false", o.held + o.candidates, r.footprint_ms, r.offer_ms,
+      r.offered, r.requests_ms, r.offered_to_requester, r.requested);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
+  const Results results = run(options);
+  report(options, results);
+  return results.same_choice ? 0 : 1;
 }

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <random>
 
 #include <pcl/io/pcd_io.h>
@@ -17,10 +18,12 @@
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/core/registration/scan_verifier.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace pr = ccir_mapping::core::place_recognition;
 namespace core = ccir_mapping::core;
+namespace tools = ccir_mapping::tools;
 
 namespace {
 
@@ -51,91 +54,108 @@ std::vector<pr::WordSet> wordSets(int count, int words, int words_per_set, unsig
   return sets;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   int places = 1000;
   int words = 2000;
   std::string data = std::getenv("CCIR_DATA_DIR") ? std::getenv("CCIR_DATA_DIR") : "";
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
   po::options_description options(
       "Usage: bench_place_recognition [--places N] [--words V] [--data DIR]\nPrints "
       "JSON.\n\nOptions");
   options.add_options()("help,h", "print this help and exit")(
-      "places", po::value<int>(&places)->default_value(places), "mapped places")(
-      "words", po::value<int>(&words)->default_value(words), "vocabulary size")(
-      "data", po::value<std::string>(&data), "shared data directory (default CCIR_DATA_DIR)");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "bench_place_recognition: " << e.what() << '\n';
-    return 2;
+      "places", po::value<int>(&o->places)->default_value(o->places), "mapped places")(
+      "words", po::value<int>(&o->words)->default_value(o->words), "vocabulary size")(
+      "data", po::value<std::string>(&o->data), "shared data directory (default CCIR_DATA_DIR)");
+  if (const auto exit_code =
+          tools::parseCommandLine("bench_place_recognition", options, argc, argv)) {
+    return exit_code;
   }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (o->places < 1 || o->words < 16) {
+    return tools::usageError("bench_place_recognition", "--places >= 1 and --words >= 16");
   }
-  if (places < 1 || words < 16) {
-    std::cerr << "bench_place_recognition: --places >= 1 and --words >= 16\n";
-    return 2;
-  }
+  return std::nullopt;
+}
 
-  const auto training = wordSets(500, words, 150, 1);
-  const pr::ChowLiuTree tree = pr::ChowLiuTree::learn(training, static_cast<std::size_t>(words));
+struct Results {
+  double fabmap2_ms = 0, fabmap1_ms = 0, difference = 0;
+  double verification_ms = -1.0;  // < 0: not measured (no real scans)
+};
+
+/// FAB-MAP 2.0 and 1.0 over the same places and queries; the posteriors are compared, so the
+/// optimiser cannot drop the queries.
+void measureFabMap(const Options& o, Results& r) {
+  const auto training = wordSets(500, o.words, 150, 1);
+  const pr::ChowLiuTree tree = pr::ChowLiuTree::learn(training, static_cast<std::size_t>(o.words));
   const pr::FabMapModel model(tree, pr::FabMapParams{});
   const std::vector<pr::WordSet> samples(training.begin(), training.begin() + 100);
   pr::FabMap one(model, samples);
   pr::FabMap2 two(model, samples);
-  for (const auto& place : wordSets(places, words, 150, 2)) {
+  for (const auto& place : wordSets(o.places, o.words, 150, 2)) {
     one.addPlace(place);
     two.addPlace(place);
   }
-  const auto queries = wordSets(20, words, 150, 3);
-  // The results are used (compared), so the optimiser cannot drop the queries.
-  double difference = 0.0;
+  const auto queries = wordSets(20, o.words, 150, 3);
   std::vector<std::vector<double>> posteriors;
   auto start = std::chrono::steady_clock::now();
   for (const auto& q : queries) posteriors.push_back(two.posterior(q));
-  const double fabmap2_ms = millisecondsSince(start) / queries.size();
+  r.fabmap2_ms = millisecondsSince(start) / queries.size();
   start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < 3; ++i) {
     const auto p = one.posterior(queries[i]);
     for (std::size_t j = 0; j < p.size(); ++j) {
-      difference = std::max(difference, std::abs(p[j] - posteriors[i][j]));
+      r.difference = std::max(r.difference, std::abs(p[j] - posteriors[i][j]));
     }
   }
-  const double fabmap1_ms = millisecondsSince(start) / 3;
+  r.fabmap1_ms = millisecondsSince(start) / 3;
+}
 
-  double verification_ms = -1.0;
-  const std::filesystem::path lidar = std::filesystem::path(data) / "lidar";
-  if (!data.empty() && std::filesystem::exists(lidar / "16line_1.pcd")) {
-    core::features::FeatureParams feature_params;
-    feature_params.drop_horizontal = core::preprocess::HorizontalFilter::kGround;
-    const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
-    const core::features::FeatureExtractor extractor(feature_params);
-    auto load = [&](const char* name) {
-      pcl::PointCloud<pcl::PointXYZI> raw;
-      pcl::io::loadPCDFile((lidar / name).string(), raw);
-      auto cloud = preprocessor.process(raw, Eigen::Vector3f::UnitZ());
-      return std::make_pair(cloud, extractor.extract(*cloud, Eigen::Vector3f::UnitZ()));
-    };
-    const auto a = load("16line_1.pcd");
-    const auto b = load("16line_2.pcd");
-    const core::registration::ScanVerifier verifier{core::registration::VerificationParams{}};
-    start = std::chrono::steady_clock::now();
-    for (int i = 0; i < 5; ++i) verifier.verify(*a.first, a.second, *b.first, b.second);
-    verification_ms = millisecondsSince(start) / 5;
-  } else {
+/// The verification of the real 16-line revisit pair, when the data is there.
+void measureVerification(const Options& o, Results& r) {
+  const std::filesystem::path lidar = std::filesystem::path(o.data) / "lidar";
+  if (o.data.empty() || !std::filesystem::exists(lidar / "16line_1.pcd")) {
     std::cerr << "bench_place_recognition: no real scans under " << lidar
               << " (set CCIR_DATA_DIR): verification not measured\n";
+    return;
   }
+  core::features::FeatureParams feature_params;
+  feature_params.drop_horizontal = core::preprocess::HorizontalFilter::kGround;
+  const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
+  const core::features::FeatureExtractor extractor(feature_params);
+  auto load = [&](const char* name) {
+    pcl::PointCloud<pcl::PointXYZI> raw;
+    pcl::io::loadPCDFile((lidar / name).string(), raw);
+    auto cloud = preprocessor.process(raw, Eigen::Vector3f::UnitZ());
+    return std::make_pair(cloud, extractor.extract(*cloud, Eigen::Vector3f::UnitZ()));
+  };
+  const auto a = load("16line_1.pcd");
+  const auto b = load("16line_2.pcd");
+  const core::registration::ScanVerifier verifier{core::registration::VerificationParams{}};
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < 5; ++i) verifier.verify(*a.first, a.second, *b.first, b.second);
+  r.verification_ms = millisecondsSince(start) / 5;
+}
+
+void report(const Options& o, const Results& r) {
   std::printf(
       "{\n  \"benchmark\": \"place_recognition\",\n  \"places\": %d,\n  \"words\": %d,\n"
       "  \"words_per_keyframe\": 150,\n  \"fabmap2_query_ms\": %.3f,\n"
       "  \"fabmap1_query_ms\": %.2f,\n  \"fabmap_target_ms\": 10,\n"
       "  \"fabmap1_vs_2_max_posterior_difference\": %.2g,\n  \"verification_ms\": %.1f,\n"
       "  \"verification_target_ms\": 150\n}\n",
-      places, words, fabmap2_ms, fabmap1_ms, difference, verification_ms);
+      o.places, o.words, r.fabmap2_ms, r.fabmap1_ms, r.difference, r.verification_ms);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
+  Results results;
+  measureFabMap(options, results);
+  measureVerification(options, results);
+  report(options, results);
   return 0;
 }

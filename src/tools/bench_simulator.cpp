@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -11,9 +12,11 @@
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/simulation/mission.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace sim = ccir_mapping::core::simulation;
+namespace tools = ccir_mapping::tools;
 using ccir_mapping::core::Pose3;
 
 namespace {
@@ -91,60 +94,47 @@ WorldResult run(const std::string& world, int scans, int brute_force_scans, int 
   return result;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string worlds = "all";
+struct Options {
+  std::vector<std::string> worlds;
   int scans = 300;
   int brute_force_scans = 3;
   int seed = 7;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
+  std::string worlds = "all";
   po::options_description options(
       "Usage: bench_simulator [--world all|mine|building|cave|cluttered] [--scans N]\n"
       "Prints JSON: VLP-16 scans per second for one robot on one thread, per world.\n\nOptions");
   options.add_options()("help,h", "print this help and exit")(
       "world", po::value<std::string>(&worlds)->default_value(worlds), "world(s) to measure")(
-      "scans", po::value<int>(&scans)->default_value(scans), "scans per world")(
-      "brute-force-scans", po::value<int>(&brute_force_scans)->default_value(brute_force_scans),
+      "scans", po::value<int>(&o->scans)->default_value(o->scans), "scans per world")(
+      "brute-force-scans",
+      po::value<int>(&o->brute_force_scans)->default_value(o->brute_force_scans),
       "scans for the baseline without the spatial index")(
-      "seed", po::value<int>(&seed)->default_value(seed), "mission seed");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "bench_simulator: " << e.what() << '\n';
-    return 2;
+      "seed", po::value<int>(&o->seed)->default_value(o->seed), "mission seed");
+  if (const auto exit_code = tools::parseCommandLine("bench_simulator", options, argc, argv)) {
+    return exit_code;
   }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  o->worlds = worlds == "all" ? sim::WorldParams::worldChoices() : std::vector{worlds};
+  if (o->scans < 1 || o->brute_force_scans < 1) {
+    return tools::usageError("bench_simulator", "--scans and --brute-force-scans must be >= 1");
   }
-  std::vector<std::string> names;
-  if (worlds == "all") {
-    names = sim::WorldParams::worldChoices();
-  } else {
-    names = {worlds};
-  }
-  if (scans < 1 || brute_force_scans < 1) {
-    std::cerr << "bench_simulator: --scans and --brute-force-scans must be >= 1\n";
-    return 2;
-  }
+  return std::nullopt;
+}
 
-  constexpr double kTargetScansPerS = 100.0;
+constexpr double kTargetScansPerS = 100.0;
+
+void report(const std::vector<WorldResult>& results) {
   std::printf(
       "{\n  \"benchmark\": \"simulator\",\n  \"threads\": 1,\n"
       "  \"lidar\": {\"rings\": 16, \"columns\": 1800, \"rate_hz\": 10},\n"
       "  \"target_scans_per_s\": %.0f,\n  \"worlds\": {\n",
       kTargetScansPerS);
   bool mine_meets_target = true;
-  for (size_t i = 0; i < names.size(); ++i) {
-    WorldResult r;
-    try {
-      r = run(names[i], scans, brute_force_scans, seed);
-    } catch (const std::exception& e) {
-      std::cerr << "bench_simulator: " << e.what() << '\n';
-      return 2;
-    }
+  for (size_t i = 0; i < results.size(); ++i) {
+    const WorldResult& r = results[i];
     if (r.world == "mine") mine_meets_target = r.scans_per_s >= kTargetScansPerS;
     std::printf(
         "    \"%s\": {\"solids\": %zu, \"scans\": %d, \"scans_per_s\": %.1f, "
@@ -152,8 +142,24 @@ int main(int argc, char** argv) {
         "\"brute_force_rays_per_s\": %.0f, \"index_speedup\": %.1f}%s\n",
         r.world.c_str(), r.solids, r.scans, r.scans_per_s, r.scans_per_s / 10.0, r.points_per_scan,
         r.rays_per_s, r.brute_force_rays_per_s, r.rays_per_s / r.brute_force_rays_per_s,
-        i + 1 < names.size() ? "," : "");
+        i + 1 < results.size() ? "," : "");
   }
   std::printf("  },\n  \"mine_meets_target\": %s\n}\n", mine_meets_target ? "true" : "false");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
+  std::vector<WorldResult> results;
+  try {
+    for (const std::string& world : options.worlds) {
+      results.push_back(run(world, options.scans, options.brute_force_scans, options.seed));
+    }
+  } catch (const std::exception& e) {
+    return tools::usageError("bench_simulator", e.what());  // an unknown world
+  }
+  report(results);
   return 0;
 }

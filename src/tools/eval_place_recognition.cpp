@@ -17,11 +17,13 @@
 #include "bag_keyframes.h"
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/place_recognition/place_matcher.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
 namespace pr = core::place_recognition;
 namespace fs = std::filesystem;
+namespace tools = ccir_mapping::tools;
 
 namespace {
 
@@ -162,24 +164,27 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   return result;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   std::string mission_dir;
   std::string model_dir;
   double spacing_m = 2.0;
   double true_distance_m = 3.0;
-  Eigen::Vector2d odom_noise_per_m(0.02, 0.005);
+  Eigen::Vector2d odom_noise_per_m{0.02, 0.005};
   pr::MatcherParams params;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
+  pr::MatcherParams& params = o->params;
   po::options_description options(
       "Usage: eval_place_recognition --mission DIR --model DIR [options]\nPrints JSON.\n\nOptions",
       100);
   options.add_options()("help,h", "print this help and exit")(
-      "mission", po::value<std::string>(&mission_dir), "simulate_team output (two robots used)")(
-      "model", po::value<std::string>(&model_dir), "train_place_model output")(
-      "keyframe-distance-m", po::value<double>(&spacing_m)->default_value(spacing_m),
+      "mission", po::value<std::string>(&o->mission_dir), "simulate_team output (two robots used)")(
+      "model", po::value<std::string>(&o->model_dir), "train_place_model output")(
+      "keyframe-distance-m", po::value<double>(&o->spacing_m)->default_value(o->spacing_m),
       "odometry travel between keyframes [m]")(
-      "true-distance-m", po::value<double>(&true_distance_m)->default_value(true_distance_m),
+      "true-distance-m", po::value<double>(&o->true_distance_m)->default_value(o->true_distance_m),
       "a candidate is true within this true distance [m]")(
       "candidates", po::value<int>(&params.max_candidates)->default_value(params.max_candidates),
       "best-ranked places of each query that are verified")(
@@ -208,97 +213,109 @@ int main(int argc, char** argv) {
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),
       "robot A's own keyframes younger than this are not matched [s]")(
-      "odom-noise-m-per-m", po::value<double>(&odom_noise_per_m.x())->default_value(0.02),
+      "odom-noise-m-per-m", po::value<double>(&o->odom_noise_per_m.x())->default_value(0.02),
       "odometry position noise (std per axis per sqrt(m) travelled; simulate_team's default)")(
-      "odom-noise-rad-per-m", po::value<double>(&odom_noise_per_m.y())->default_value(0.005),
+      "odom-noise-rad-per-m", po::value<double>(&o->odom_noise_per_m.y())->default_value(0.005),
       "odometry heading noise (std per sqrt(m) travelled)");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "eval_place_recognition: " << e.what() << '\n';
-    return 2;
-  }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (const auto exit_code =
+          tools::parseCommandLine("eval_place_recognition", options, argc, argv)) {
+    return exit_code;
   }
   const auto errors = params.validate();
-  if (!errors.empty() || mission_dir.empty() || model_dir.empty() || !(spacing_m > 0) ||
-      !(true_distance_m > 0)) {
-    std::cerr << "eval_place_recognition: "
-              << (errors.empty() ? "need --mission and --model (see --help)" : errors.front())
-              << '\n';
-    return 2;
+  if (!errors.empty() || o->mission_dir.empty() || o->model_dir.empty() || !(o->spacing_m > 0) ||
+      !(o->true_distance_m > 0)) {
+    return tools::usageError(
+        "eval_place_recognition",
+        errors.empty() ? "need --mission and --model (see --help)" : errors.front());
   }
-  try {
-    const auto model = pr::PlaceModel::load(model_dir);
-    const YAML::Node mission = YAML::LoadFile((fs::path(mission_dir) / "mission.yaml").string());
-    if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
-    const pr::PlaceMatcher describer(params, model);
-    std::vector<std::vector<Keyframe>> robots;
-    core::Pose3 world_from_odom[2];
-    for (int r = 0; r < 2; ++r) {
-      const YAML::Node robot = mission["robots"][r];
-      world_from_odom[r] = poseFromYaml(robot["initial_pose_in_world"]);
-      robots.push_back(keyframesOf(fs::path(mission_dir) / robot["bag"].as<std::string>(),
-                                   world_from_odom[r], spacing_m, odom_noise_per_m, describer));
-    }
-    const auto& map = robots[0];
-    const auto& queries = robots[1];
-    int overlapping = 0;
-    for (const Keyframe& q : queries) {
-      overlapping += std::any_of(map.begin(), map.end(), [&](const Keyframe& m) {
-        return (q.world_position - m.world_position).norm() <= true_distance_m;
-      });
-    }
-    double words = 0;
-    for (const auto& robot : robots) {
-      for (const auto& k : robot) words += k.described.words.size();
-    }
+  return std::nullopt;
+}
+
+struct Results {
+  std::size_t map_keyframes = 0, query_keyframes = 0;
+  int overlapping = 0;
+  double words_per_keyframe = 0.0;
+  std::vector<std::pair<pr::MatchMethod, MethodResult>> methods;
+};
+
+/// Throws std::runtime_error (the mission or model cannot be read, fewer than two robots).
+Results run(const Options& o) {
+  const auto model = pr::PlaceModel::load(o.model_dir);
+  const YAML::Node mission = YAML::LoadFile((fs::path(o.mission_dir) / "mission.yaml").string());
+  if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
+  const pr::PlaceMatcher describer(o.params, model);
+  std::vector<std::vector<Keyframe>> robots;
+  core::Pose3 world_from_odom[2];
+  for (int r = 0; r < 2; ++r) {
+    const YAML::Node robot = mission["robots"][r];
+    world_from_odom[r] = poseFromYaml(robot["initial_pose_in_world"]);
+    robots.push_back(keyframesOf(fs::path(o.mission_dir) / robot["bag"].as<std::string>(),
+                                 world_from_odom[r], o.spacing_m, o.odom_noise_per_m, describer));
+  }
+  const auto& map = robots[0];
+  const auto& queries = robots[1];
+  Results results;
+  results.map_keyframes = map.size();
+  results.query_keyframes = queries.size();
+  for (const Keyframe& q : queries) {
+    results.overlapping += std::any_of(map.begin(), map.end(), [&](const Keyframe& m) {
+      return (q.world_position - m.world_position).norm() <= o.true_distance_m;
+    });
+  }
+  double words = 0;
+  for (const auto& robot : robots) {
+    for (const auto& k : robot) words += k.described.words.size();
+  }
+  results.words_per_keyframe = words / std::max<std::size_t>(1, map.size() + queries.size());
+  for (const pr::MatchMethod method : {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram}) {
+    results.methods.emplace_back(method,
+                                 evaluate(method, o.params, model, map, queries, o.true_distance_m,
+                                          world_from_odom[0].inverse() * world_from_odom[1]));
+  }
+  return results;
+}
+
+void report(const Options& o, const Results& results) {
+  std::printf(
+      "{\n  \"benchmark\": \"place_recognition_eval\",\n  \"mission\": \"%s\",\n"
+      "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
+      "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n"
+      "  \"candidates_per_query\": %d,\n  \"methods\": {\n",
+      o.mission_dir.c_str(), results.map_keyframes, results.query_keyframes, results.overlapping,
+      results.words_per_keyframe, o.params.max_candidates);
+  const int overlapping = results.overlapping;
+  for (const auto& [method, r] : results.methods) {
+    auto stage = [&](const char* name, const Counts& c, const char* end) {
+      std::printf(
+          "      \"%s\": {\"tp\": %d, \"fp\": %d, \"precision\": %.3f, \"recall\": %.3f, "
+          "\"correct_pose\": %d}%s\n",
+          name, c.tp, c.fp, c.precision(), overlapping ? double(c.tp) / overlapping : 0.0,
+          c.correct_pose, end);
+    };
     std::printf(
-        "{\n  \"benchmark\": \"place_recognition_eval\",\n  \"mission\": \"%s\",\n"
-        "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
-        "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n"
-        "  \"candidates_per_query\": %d,\n  \"methods\": {\n",
-        mission_dir.c_str(), map.size(), queries.size(), overlapping,
-        words / std::max<std::size_t>(1, map.size() + queries.size()), params.max_candidates);
-    const pr::MatchMethod methods[] = {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram};
-    for (const pr::MatchMethod method : methods) {
-      const MethodResult r = evaluate(method, params, model, map, queries, true_distance_m,
-                                      world_from_odom[0].inverse() * world_from_odom[1]);
-      auto stage = [&](const char* name, const Counts& c, const char* end) {
-        std::printf(
-            "      \"%s\": {\"tp\": %d, \"fp\": %d, \"precision\": %.3f, \"recall\": %.3f, "
-            "\"correct_pose\": %d}%s\n",
-            name, c.tp, c.fp, c.precision(), overlapping ? double(c.tp) / overlapping : 0.0,
-            c.correct_pose, end);
-      };
-      std::printf(
-          "    \"%s\": {\n      \"best_ranked_tp\": %d, \"best_ranked_fp\": %d, "
-          "\"candidates_tp\": %d, \"candidates_fp\": %d,\n",
-          pr::toString(method), r.best_ranked.tp, r.best_ranked.fp, r.candidates.tp,
-          r.candidates.fp);
-      stage("verified", r.verified, ",");
-      stage("team_frame", r.team_frame, ",");
-      auto error = [](const char* name, const std::optional<core::Pose3>& e) {
-        if (!e) return;
-        std::printf("      \"%s\": {\"m\": %.3f, \"deg\": %.2f},\n", name, e->translation().norm(),
-                    Eigen::AngleAxisd(e->linear()).angle() * 180 / M_PI);
-      };
-      error("team_frame_error", r.team_frame_error);
-      error("team_frame_drift_floor", r.team_frame_drift_floor);
-      std::printf(
-          "      \"own_loops\": {\"candidates_tp\": %d, \"candidates_fp\": %d, \"verified_tp\": "
-          "%d, \"verified_fp\": %d}\n    }%s\n",
-          r.own_candidates.tp, r.own_candidates.fp, r.own_verified.tp, r.own_verified.fp,
-          method == methods[1] ? "" : ",");
-    }
-    std::printf("  }\n}\n");
-  } catch (const std::exception& e) {
-    std::cerr << "eval_place_recognition: " << e.what() << '\n';
-    return 1;
+        "    \"%s\": {\n      \"best_ranked_tp\": %d, \"best_ranked_fp\": %d, "
+        "\"candidates_tp\": %d, \"candidates_fp\": %d,\n",
+        pr::toString(method), r.best_ranked.tp, r.best_ranked.fp, r.candidates.tp, r.candidates.fp);
+    stage("verified", r.verified, ",");
+    stage("team_frame", r.team_frame, ",");
+    auto error = [](const char* name, const std::optional<core::Pose3>& e) {
+      if (!e) return;
+      std::printf("      \"%s\": {\"m\": %.3f, \"deg\": %.2f},\n", name, e->translation().norm(),
+                  Eigen::AngleAxisd(e->linear()).angle() * 180 / M_PI);
+    };
+    error("team_frame_error", r.team_frame_error);
+    error("team_frame_drift_floor", r.team_frame_drift_floor);
+    std::printf(
+        "      \"own_loops\": {\"candidates_tp\": %d, \"candidates_fp\": %d, \"verified_tp\": "
+        "%d, \"verified_fp\": %d}\n    }%s\n",
+        r.own_candidates.tp, r.own_candidates.fp, r.own_verified.tp, r.own_verified.fp,
+        &r == &results.methods.back().second ? "" : ",");
   }
-  return 0;
+  std::printf("  }\n}\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return tools::runTool("eval_place_recognition", argc, argv, parse, run, report);
 }

@@ -10,21 +10,30 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/transport/link_proxy.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
+namespace tools = ccir_mapping::tools;
 using ccir_mapping::core::transport::LinkProxy;
 using ccir_mapping::core::transport::LinkProxyParams;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct Options {
   LinkProxyParams params;
   std::vector<double> cut_at_s;
-  std::vector<std::string> outages;
   std::string log_path;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
+  LinkProxyParams& params = o->params;
   po::options_description options("link_proxy: an emulated radio link between two TCP ends");
   options.add_options()("help", "this help")("listen-port",
                                              po::value<int>(&params.listen_port)->default_value(0),
@@ -39,65 +48,67 @@ int main(int argc, char** argv) {
       "loss", po::value<double>(&params.link.loss)->default_value(0.0),
       "share of chunks lost once (delivered a retransmission later)")(
       "seed", po::value<std::uint64_t>(&params.link.seed)->default_value(1), "random seed")(
-      "cut-at-s", po::value<std::vector<double>>(&cut_at_s)->multitoken(),
+      "cut-at-s", po::value<std::vector<double>>(&o->cut_at_s)->multitoken(),
       "seconds after start at which every connection is closed")(
-      "log", po::value<std::string>(&log_path), "CSV of the bytes relayed, written at exit");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    if (arguments.count("help")) {
-      std::cout << options << "\n";
-      return 0;
-    }
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "link_proxy: " << e.what() << "\n" << options << "\n";
-    return 2;
-  }
+      "log", po::value<std::string>(&o->log_path), "CSV of the bytes relayed, written at exit");
+  return tools::parseCommandLine("link_proxy", options, argc, argv);
+}
 
-  // Signals are taken by sigwait below, not by a handler.
+/// Relays until SIGINT or SIGTERM, cutting every connection at the times asked; throws
+/// std::exception when the proxy cannot listen.
+std::unique_ptr<LinkProxy> run(Options o) {
+  // Signals are taken by sigwait below, not by a handler (blocked before any thread starts).
   sigset_t stop;
   sigemptyset(&stop);
   sigaddset(&stop, SIGINT);
   sigaddset(&stop, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop, nullptr);
-
-  std::unique_ptr<LinkProxy> proxy;
-  try {
-    proxy = std::make_unique<LinkProxy>(params);
-  } catch (const std::exception& e) {
-    std::cerr << "link_proxy: " << e.what() << "\n";
-    return 1;
-  }
-  std::cout << "link_proxy: 127.0.0.1:" << proxy->port() << " -> " << params.target_host << ":"
-            << params.target_port << std::endl;
-
-  std::thread cutter([&] {
+  auto proxy = std::make_unique<LinkProxy>(o.params);
+  std::cout << "link_proxy: 127.0.0.1:" << proxy->port() << " -> " << o.params.target_host << ":"
+            << o.params.target_port << std::endl;
+  std::thread cutter([cut_at_s = std::move(o.cut_at_s), &proxy = *proxy]() mutable {
     const auto start = std::chrono::steady_clock::now();
     std::sort(cut_at_s.begin(), cut_at_s.end());
     for (const double t : cut_at_s) {
       std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::nanoseconds>(
                                                 std::chrono::duration<double>(t)));
-      proxy->cut();
+      proxy.cut();
       std::cout << "link_proxy: cut every connection at " << t << " s" << std::endl;
     }
   });
   cutter.detach();
   int signal = 0;
   sigwait(&stop, &signal);
+  return proxy;
+}
 
-  if (!log_path.empty()) {
-    std::ofstream log(log_path);
-    log << "direction,time_s,bytes\n";
-    for (const bool up : {true, false}) {
-      for (const auto& [t, bytes] : proxy->forwarded(up)) {
-        log << (up ? "up" : "down") << "," << t << "," << bytes << "\n";
-      }
-    }
-    if (!log) {
-      std::cerr << "link_proxy: cannot write " << log_path << "\n";
-      return 1;
+/// The CSV of what the proxy relayed each way; false when it cannot be written.
+bool report(const Options& o, const LinkProxy& proxy) {
+  if (o.log_path.empty()) return true;
+  std::ofstream log(o.log_path);
+  log << "direction,time_s,bytes\n";
+  for (const bool up : {true, false}) {
+    for (const auto& [t, bytes] : proxy.forwarded(up)) {
+      log << (up ? "up" : "down") << "," << t << "," << bytes << "\n";
     }
   }
-  std::_Exit(0);  // the cutter may still sleep
+  if (log) return true;
+  std::cerr << "link_proxy: cannot write " << o.log_path << "\n";
+  return false;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
+  std::unique_ptr<LinkProxy> proxy;
+  try {
+    proxy = run(options);
+  } catch (const std::exception& e) {
+    std::cerr << "link_proxy: " << e.what() << "\n";
+    return 1;
+  }
+  const bool written = report(options, *proxy);
+  std::_Exit(written ? 0 : 1);  // the cutter may still sleep
 }

@@ -4,6 +4,8 @@
 // arguments.
 #include <cstdio>
 #include <iostream>
+#include <optional>
+#include <stdexcept>
 
 #include <rosbag/bag.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -11,10 +13,14 @@
 
 #include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
 #include "ccir_mapping/ros/conversions.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
+namespace tools = ccir_mapping::tools;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct Options {
   std::string pcap;
   std::string out;
   std::string model = "VLP16";
@@ -22,65 +28,84 @@ int main(int argc, char** argv) {
   std::string topic = "/velodyne_points";
   double start_time_s = 100.0;
   double min_range_m = 0.4;
+};
+
+/// The options, or the exit code to end with (help, bad arguments).
+std::optional<int> parse(int argc, char** argv, Options* o) {
   po::options_description options(
       "Usage: pcap_to_bag --pcap FILE --out BAG [--model VLP16] [--frame velodyne]\n"
       "Decodes every rotation of a Velodyne pcap into a PointCloud2 (x y z intensity ring time,\n"
       "no-returns dropped). Stamps follow the sensor's packet clock from --start-time-s. The\n"
       "model is never read from the packets (their factory byte can be wrong).\n\nOptions",
       100);
-  options.add_options()("help,h", "print this help and exit")("pcap", po::value<std::string>(&pcap),
-                                                              "Velodyne packet capture to read")(
-      "out", po::value<std::string>(&out), "bag to write")(
-      "model", po::value<std::string>(&model)->default_value(model),
+  options.add_options()("help,h", "print this help and exit")(
+      "pcap", po::value<std::string>(&o->pcap), "Velodyne packet capture to read")(
+      "out", po::value<std::string>(&o->out), "bag to write")(
+      "model", po::value<std::string>(&o->model)->default_value(o->model),
       "sensor model; allowed VLP16 | HDL32 | HDL64")(
-      "frame", po::value<std::string>(&frame)->default_value(frame), "frame_id of the clouds")(
-      "topic", po::value<std::string>(&topic)->default_value(topic), "topic in the bag")(
-      "start-time-s", po::value<double>(&start_time_s)->default_value(start_time_s),
+      "frame", po::value<std::string>(&o->frame)->default_value(o->frame),
+      "frame_id of the clouds")("topic", po::value<std::string>(&o->topic)->default_value(o->topic),
+                                "topic in the bag")(
+      "start-time-s", po::value<double>(&o->start_time_s)->default_value(o->start_time_s),
       "stamp of the first rotation [s]; allowed > 0")(
-      "min-range-m", po::value<double>(&min_range_m)->default_value(min_range_m),
+      "min-range-m", po::value<double>(&o->min_range_m)->default_value(o->min_range_m),
       "nearer returns are dropped [m]; allowed >= 0");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "pcap_to_bag: " << e.what() << " (see pcap_to_bag --help)\n";
-    return 2;
+  if (const auto exit_code = tools::parseCommandLine("pcap_to_bag", options, argc, argv)) {
+    return exit_code;
   }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (o->pcap.empty() || o->out.empty()) {
+    return tools::usageError("pcap_to_bag",
+                             "--pcap and --out are required (see pcap_to_bag --help)");
   }
-  if (pcap.empty() || out.empty()) {
-    std::cerr << "pcap_to_bag: --pcap and --out are required (see pcap_to_bag --help)\n";
-    return 2;
+  if (!(o->start_time_s > 0.0) || !(o->min_range_m >= 0.0) || o->frame.empty() ||
+      o->topic.empty()) {
+    return tools::usageError("pcap_to_bag",
+                             "--start-time-s must be > 0, --min-range-m >= 0, --frame and "
+                             "--topic non-empty");
   }
-  if (!(start_time_s > 0.0) || !(min_range_m >= 0.0) || frame.empty() || topic.empty()) {
-    std::cerr << "pcap_to_bag: --start-time-s must be > 0, --min-range-m >= 0, --frame and "
-                 "--topic non-empty\n";
-    return 2;
-  }
+  return std::nullopt;
+}
 
+struct Results {
+  std::size_t scans = 0;
+  std::size_t points = 0;
+  int rings = 0;
+};
+
+/// Throws std::invalid_argument for an unknown model, std::runtime_error when the pcap cannot
+/// be read or the bag written.
+Results run(const Options& o) {
+  ccir_mapping::core::velodyne::VelodynePcapReader reader(
+      o.pcap, o.model, ccir_mapping::core::fromSeconds(o.start_time_s), o.min_range_m);
+  rosbag::Bag bag(o.out, rosbag::bagmode::Write);
+  Results r;
+  sensor_msgs::PointCloud2 cloud;
+  while (const auto scan = reader.next()) {
+    ccir_mapping::conversions::toPointCloud2(*scan, o.frame, &cloud);
+    if (cloud.width == 0) continue;  // a rotation without a single return
+    bag.write(o.topic, cloud.header.stamp, cloud);
+    ++r.scans;
+    r.points += cloud.width;
+  }
+  bag.close();
+  r.rings = reader.rings();
+  return r;
+}
+
+void report(const Options& o, const Results& r) {
+  std::printf("pcap_to_bag: %zu rotation(s), %zu points (%d rings) from %s -> %s on %s\n", r.scans,
+              r.points, r.rings, o.pcap.c_str(), o.out.c_str(), o.topic.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
   try {
-    ccir_mapping::core::velodyne::VelodynePcapReader reader(
-        pcap, model, ccir_mapping::core::fromSeconds(start_time_s), min_range_m);
-    rosbag::Bag bag(out, rosbag::bagmode::Write);
-    std::size_t scans = 0;
-    std::size_t points = 0;
-    sensor_msgs::PointCloud2 cloud;
-    while (const auto scan = reader.next()) {
-      ccir_mapping::conversions::toPointCloud2(*scan, frame, &cloud);
-      if (cloud.width == 0) continue;  // a rotation without a single return
-      bag.write(topic, cloud.header.stamp, cloud);
-      ++scans;
-      points += cloud.width;
-    }
-    bag.close();
-    std::printf("pcap_to_bag: %zu rotation(s), %zu points (%d rings) from %s -> %s on %s\n", scans,
-                points, reader.rings(), pcap.c_str(), out.c_str(), topic.c_str());
+    report(options, run(options));
   } catch (const std::invalid_argument& e) {
-    std::cerr << "pcap_to_bag: --model: " << e.what() << '\n';
-    return 2;
+    return tools::usageError("pcap_to_bag", std::string("--model: ") + e.what());
   } catch (const std::exception& e) {
     std::cerr << "pcap_to_bag: " << e.what() << '\n';
     return 1;

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -16,8 +18,10 @@
 #include "ccir_mapping/core/common/field_check.h"
 #include "ccir_mapping/core/simulation/mission.h"
 #include "ccir_mapping/ros/mission_files.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
+namespace tools = ccir_mapping::tools;
 namespace sim = ccir_mapping::core::simulation;
 namespace io = ccir_mapping::simulation_io;
 
@@ -102,16 +106,17 @@ std::vector<io::RobotRecording> recordAll(const sim::Mission& mission, const std
   return recordings;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines appear as they are written
+struct Options {
   sim::MissionParams params;
   std::string out_dir = "mission";
-  std::string compression = "none";
-  int threads = 0;
   io::BagOptions bag_options;
+  int threads = 0;
+  std::string command_line = "simulate_team";
+};
 
+/// The options, or the exit code to end with (help, bad arguments).
+std::optional<int> parse(int argc, char** argv, Options* o) {
+  std::string compression = "none";
   po::options_description options(
       "Usage: simulate_team [--world mine] [--robots 3] [--duration 120] [--seed 7] --out DIR\n\n"
       "Simulates a team of robots with VLP-16 lidars and drifting odometry in a mine, building,\n"
@@ -122,16 +127,16 @@ int main(int argc, char** argv) {
       "Options",
       110);
   options.add_options()("help,h", "print this help and exit")(
-      "out", po::value<std::string>(&out_dir)->default_value(out_dir)->value_name("dir"),
+      "out", po::value<std::string>(&o->out_dir)->default_value(o->out_dir)->value_name("dir"),
       "output directory (created if missing)")(
       "compression", po::value<std::string>(&compression)->default_value(compression),
       "bag compression; allowed none | lz4 | bz2")(
-      "namespace-topics", po::bool_switch(&bag_options.namespace_topics),
+      "namespace-topics", po::bool_switch(&o->bag_options.namespace_topics),
       "record topics under /<robot>/ (to replay several robots into one master)")(
-      "threads", po::value<int>(&threads)->default_value(0),
+      "threads", po::value<int>(&o->threads)->default_value(0),
       "robots written in parallel; 0: one per core");
   FlagRegistrar registrar(&options);
-  sim::MissionParams::fields(params, registrar);
+  sim::MissionParams::fields(o->params, registrar);
 
   po::variables_map arguments;
   try {
@@ -146,13 +151,13 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  std::vector<std::string> errors = params.validate();
+  std::vector<std::string> errors = o->params.validate();
   if (compression != "none" && compression != "lz4" && compression != "bz2") {
     errors.push_back("compression = '" + compression +
                      "' is not allowed: allowed none | lz4 | bz2");
   }
-  if (threads < 0)
-    errors.push_back("threads = " + text(threads) + " is out of range: allowed >= 0");
+  if (o->threads < 0)
+    errors.push_back("threads = " + text(o->threads) + " is out of range: allowed >= 0");
   if (!errors.empty()) {
     for (const auto& error : errors) {
       // Errors start with the parameter's name: show the flag that sets it.
@@ -161,42 +166,58 @@ int main(int argc, char** argv) {
     }
     return kExitBadArguments;
   }
-  bag_options.compression = compression == "lz4"   ? io::BagCompression::kLz4
-                            : compression == "bz2" ? io::BagCompression::kBz2
-                                                   : io::BagCompression::kNone;
-  if (threads == 0) threads = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
-
-  std::string command_line = "simulate_team";
-  for (int i = 1; i < argc; ++i) command_line += std::string(" ") + argv[i];
-
-  const auto started = std::chrono::steady_clock::now();
-  try {
-    std::filesystem::create_directories(out_dir);
-    const sim::Mission mission(params);
-    const auto& world = mission.world();
-    std::printf(
-        "simulate_team: %s %.0f x %.0f m (%zu boxes, %zu cylinders, %zu walls), "
-        "%d robot(s), %.1f s, seed %d -> %s\n",
-        world.kind().c_str(), world.bounds().x_max - world.bounds().x_min,
-        world.bounds().y_max - world.bounds().y_min, world.boxes().size(), world.cylinders().size(),
-        world.walls().size(), params.robots, params.duration_s, params.seed, out_dir.c_str());
-    const auto recordings = recordAll(mission, out_dir, bag_options, threads);
-    io::writeMissionFile(mission, recordings, out_dir, command_line);
-    for (size_t i = 0; i < recordings.size(); ++i) {
-      const auto& robot = mission.robots()[i];
-      const auto& r = recordings[i];
-      std::printf(
-          "  %-9s %-6s starts +%5.1f s  %6.1f m  %5lu scans  shared %3.0f %%  %s (%.0f MB)\n",
-          robot.name.c_str(), robot.aerial ? "aerial" : "ground", robot.start_offset_s,
-          robot.distance_m, static_cast<unsigned long>(r.scans), 100.0 * robot.shared_fraction,
-          r.bag_file.c_str(), r.bag_bytes / 1e6);
-    }
-  } catch (const std::exception& e) {
-    std::cerr << "simulate_team: " << e.what() << '\n';
-    return 1;
+  o->bag_options.compression = compression == "lz4"   ? io::BagCompression::kLz4
+                               : compression == "bz2" ? io::BagCompression::kBz2
+                                                      : io::BagCompression::kNone;
+  if (o->threads == 0) {
+    o->threads = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
   }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  std::printf("simulate_team: wrote %s/mission.yaml in %.1f s\n", out_dir.c_str(), seconds);
-  return 0;
+  for (int i = 1; i < argc; ++i) o->command_line += std::string(" ") + argv[i];
+  return std::nullopt;
+}
+
+struct Results {
+  std::unique_ptr<sim::Mission> mission;
+  std::vector<io::RobotRecording> recordings;
+  double seconds = 0.0;
+};
+
+/// Simulates and writes the mission, printing its world first; throws std::runtime_error (a
+/// file that cannot be written).
+Results run(const Options& o) {
+  const auto started = std::chrono::steady_clock::now();
+  std::filesystem::create_directories(o.out_dir);
+  Results r;
+  r.mission = std::make_unique<sim::Mission>(o.params);
+  const auto& world = r.mission->world();
+  std::printf(
+      "simulate_team: %s %.0f x %.0f m (%zu boxes, %zu cylinders, %zu walls), "
+      "%d robot(s), %.1f s, seed %d -> %s\n",
+      world.kind().c_str(), world.bounds().x_max - world.bounds().x_min,
+      world.bounds().y_max - world.bounds().y_min, world.boxes().size(), world.cylinders().size(),
+      world.walls().size(), o.params.robots, o.params.duration_s, o.params.seed, o.out_dir.c_str());
+  r.recordings = recordAll(*r.mission, o.out_dir, o.bag_options, o.threads);
+  io::writeMissionFile(*r.mission, r.recordings, o.out_dir, o.command_line);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return r;
+}
+
+void report(const Options& o, const Results& results) {
+  for (size_t i = 0; i < results.recordings.size(); ++i) {
+    const auto& robot = results.mission->robots()[i];
+    const auto& r = results.recordings[i];
+    std::printf("  %-9s %-6s starts +%5.1f s  %6.1f m  %5lu scans  shared %3.0f %%  %s (%.0f MB)\n",
+                robot.name.c_str(), robot.aerial ? "aerial" : "ground", robot.start_offset_s,
+                robot.distance_m, static_cast<unsigned long>(r.scans),
+                100.0 * robot.shared_fraction, r.bag_file.c_str(), r.bag_bytes / 1e6);
+  }
+  std::printf("simulate_team: wrote %s/mission.yaml in %.1f s\n", o.out_dir.c_str(),
+              results.seconds);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines appear as they are written
+  return tools::runTool("simulate_team", argc, argv, parse, run, report);
 }

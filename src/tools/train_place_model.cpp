@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -16,11 +18,15 @@
 #include "bag_keyframes.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
+#include "command_line.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
+namespace tools = ccir_mapping::tools;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct Options {
   std::vector<std::string> bags;
   std::string out;
   int words = 500;
@@ -29,109 +35,120 @@ int main(int argc, char** argv) {
   int seed = 1;
   std::string points_topic = "/velodyne_points";
   std::string odom_topic = "/odom";
-  core::features::FeatureParams feature_params;
-  std::string drop_horizontal = core::preprocess::toString(feature_params.drop_horizontal);
+  core::features::FeatureParams features;
+};
+
+/// The options, or the exit code to end with (help, a usage error).
+std::optional<int> parse(int argc, char** argv, Options* o) {
+  std::string drop_horizontal = core::preprocess::toString(o->features.drop_horizontal);
   po::options_description options(
       "Usage: train_place_model --bags A.bag [B.bag ...] --out DIR [--words 500]\n"
       "Learns the vocabulary, the Chow-Liu tree and the new-place samples from missions that do\n"
       "not overlap the places to recognise.\n\nOptions",
       100);
   options.add_options()("help,h", "print this help and exit")(
-      "bags", po::value<std::vector<std::string>>(&bags)->multitoken(), "training rosbags")(
-      "out", po::value<std::string>(&out), "output directory (created)")(
-      "words", po::value<int>(&words)->default_value(words), "vocabulary size")(
+      "bags", po::value<std::vector<std::string>>(&o->bags)->multitoken(), "training rosbags")(
+      "out", po::value<std::string>(&o->out), "output directory (created)")(
+      "words", po::value<int>(&o->words)->default_value(o->words), "vocabulary size")(
       "keyframe-distance-m",
-      po::value<double>(&keyframe_distance_m)->default_value(keyframe_distance_m),
+      po::value<double>(&o->keyframe_distance_m)->default_value(o->keyframe_distance_m),
       "odometry travel between training keyframes [m]")(
-      "max-descriptors", po::value<int>(&max_descriptors)->default_value(max_descriptors),
+      "max-descriptors", po::value<int>(&o->max_descriptors)->default_value(o->max_descriptors),
       "descriptors the vocabulary is clustered from (a seeded sample beyond that)")(
-      "seed", po::value<int>(&seed)->default_value(seed), "clustering and sampling seed")(
-      "points-topic", po::value<std::string>(&points_topic)->default_value(points_topic), "clouds")(
-      "odom-topic", po::value<std::string>(&odom_topic)->default_value(odom_topic), "odometry")(
+      "seed", po::value<int>(&o->seed)->default_value(o->seed), "clustering and sampling seed")(
+      "points-topic", po::value<std::string>(&o->points_topic)->default_value(o->points_topic),
+      "clouds")("odom-topic", po::value<std::string>(&o->odom_topic)->default_value(o->odom_topic),
+                "odometry")(
       "feature-drop-horizontal",
       po::value<std::string>(&drop_horizontal)->default_value(drop_horizontal),
       "degenerate-normal filter of the features: none | ground | ceiling | both")(
       "iss-non-max-radius-m",
-      po::value<double>(&feature_params.iss_non_max_radius_m)
-          ->default_value(feature_params.iss_non_max_radius_m),
+      po::value<double>(&o->features.iss_non_max_radius_m)
+          ->default_value(o->features.iss_non_max_radius_m),
       "ISS non-maximum suppression radius [m]");
-  po::variables_map arguments;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), arguments);
-    po::notify(arguments);
-  } catch (const po::error& e) {
-    std::cerr << "train_place_model: " << e.what() << " (see --help)\n";
-    return 2;
-  }
-  if (arguments.count("help")) {
-    std::cout << options << '\n';
-    return 0;
+  if (const auto exit_code = tools::parseCommandLine("train_place_model", options, argc, argv)) {
+    return exit_code;
   }
   const auto filter = core::preprocess::parseHorizontalFilter(drop_horizontal);
-  if (filter) feature_params.drop_horizontal = *filter;
-  if (!filter || !feature_params.validate().empty() || bags.empty() || out.empty() || words < 2 ||
-      !(keyframe_distance_m > 0) || max_descriptors < words) {
-    std::cerr
-        << "train_place_model: need --bags and --out, --words >= 2, --keyframe-distance-m > 0, "
-           "--max-descriptors >= --words\n";
-    return 2;
+  if (filter) o->features.drop_horizontal = *filter;
+  if (!filter || !o->features.validate().empty() || o->bags.empty() || o->out.empty() ||
+      o->words < 2 || !(o->keyframe_distance_m > 0) || o->max_descriptors < o->words) {
+    return tools::usageError("train_place_model",
+                             "need --bags and --out, --words >= 2, --keyframe-distance-m > 0, "
+                             "--max-descriptors >= --words");
   }
+  return std::nullopt;
+}
 
-  const core::features::FeatureExtractor extractor(feature_params);
+/// The model learnt from the bags' keyframes, and what it was learnt from.
+struct Results {
+  std::size_t keyframes = 0;
+  std::size_t descriptors = 0;
+  double words_per_keyframe = 0.0;
+  std::shared_ptr<const core::place_recognition::PlaceModel> model;
+};
+
+/// Throws std::runtime_error (a bag that cannot be read, too few descriptors, a model that
+/// cannot be written).
+Results run(const Options& o) {
+  const core::features::FeatureExtractor extractor(o.features);
   BagKeyframeOptions keyframe_options;
-  keyframe_options.points_topic = points_topic;
-  keyframe_options.odom_topic = odom_topic;
-  keyframe_options.keyframe_distance_m = keyframe_distance_m;
+  keyframe_options.points_topic = o.points_topic;
+  keyframe_options.odom_topic = o.odom_topic;
+  keyframe_options.keyframe_distance_m = o.keyframe_distance_m;
   std::vector<core::features::LocalFeatures> keyframes;
-  try {
-    for (const std::string& path : bags) {
-      const std::size_t count =
-          forEachBagKeyframe(path, keyframe_options, extractor,
-                             [&](BagKeyframe&& k) { keyframes.push_back(std::move(k.features)); });
-      std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(), count);
-    }
-  } catch (const std::exception& e) {
-    std::cerr << "train_place_model: " << e.what() << '\n';
-    return 1;
+  for (const std::string& path : o.bags) {
+    const std::size_t count =
+        forEachBagKeyframe(path, keyframe_options, extractor,
+                           [&](BagKeyframe&& k) { keyframes.push_back(std::move(k.features)); });
+    std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(), count);
   }
-
   std::vector<core::features::SpinImage> descriptors;
   for (const auto& k : keyframes)
     descriptors.insert(descriptors.end(), k.descriptors.begin(), k.descriptors.end());
-  if (descriptors.size() < static_cast<std::size_t>(words)) {
-    std::cerr << "train_place_model: only " << descriptors.size() << " descriptors from "
-              << keyframes.size() << " keyframes for " << words << " words\n";
-    return 1;
+  if (descriptors.size() < static_cast<std::size_t>(o.words)) {
+    throw std::runtime_error("only " + std::to_string(descriptors.size()) + " descriptors from " +
+                             std::to_string(keyframes.size()) + " keyframes for " +
+                             std::to_string(o.words) + " words");
   }
-  std::mt19937 rng(static_cast<unsigned>(seed));
-  if (descriptors.size() > static_cast<std::size_t>(max_descriptors)) {
+  std::mt19937 rng(static_cast<unsigned>(o.seed));
+  if (descriptors.size() > static_cast<std::size_t>(o.max_descriptors)) {
     std::shuffle(descriptors.begin(), descriptors.end(), rng);
-    descriptors.resize(static_cast<std::size_t>(max_descriptors));
+    descriptors.resize(static_cast<std::size_t>(o.max_descriptors));
   }
-  try {
-    auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, words, seed);
-    std::vector<core::place_recognition::WordSet> sets;
-    for (const auto& k : keyframes) sets.push_back(vocabulary.quantize(k.descriptors));
-    auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
-    std::ostringstream about;
-    about << "training_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
-          << "\nkeyframe_distance_m: " << keyframe_distance_m << "\nbags:\n";
-    for (const auto& bag : bags) {
-      about << "  - " << std::filesystem::path(bag).filename().string() << '\n';
-    }
-    const core::place_recognition::PlaceModel model{std::move(vocabulary), std::move(tree), sets,
-                                                    feature_params};
-    model.save(out, about.str());
-    double words_per_keyframe = 0;
-    for (const auto& set : sets) words_per_keyframe += set.size();
-    std::printf(
-        "train_place_model: %zu words (hash %s) from %zu descriptors; %zu keyframes, "
-        "%.0f words each on average -> %s\n",
-        model.vocabulary.size(), model.vocabulary.hash().c_str(), descriptors.size(),
-        keyframes.size(), words_per_keyframe / std::max<std::size_t>(1, sets.size()), out.c_str());
-  } catch (const std::exception& e) {
-    std::cerr << "train_place_model: " << e.what() << '\n';
-    return 1;
+  auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, o.words, o.seed);
+  std::vector<core::place_recognition::WordSet> sets;
+  for (const auto& k : keyframes) sets.push_back(vocabulary.quantize(k.descriptors));
+  auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
+  std::ostringstream about;
+  about << "training_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
+        << "\nkeyframe_distance_m: " << o.keyframe_distance_m << "\nbags:\n";
+  for (const auto& bag : o.bags) {
+    about << "  - " << std::filesystem::path(bag).filename().string() << '\n';
   }
-  return 0;
+  Results r;
+  r.keyframes = keyframes.size();
+  r.descriptors = descriptors.size();
+  for (const auto& set : sets) r.words_per_keyframe += set.size();
+  r.words_per_keyframe /= double(std::max<std::size_t>(1, sets.size()));
+  auto model =
+      std::make_shared<core::place_recognition::PlaceModel>(core::place_recognition::PlaceModel{
+          std::move(vocabulary), std::move(tree), sets, o.features});
+  model->save(o.out, about.str());
+  r.model = std::move(model);
+  return r;
+}
+
+void report(const Options& o, const Results& r) {
+  std::printf(
+      "train_place_model: %zu words (hash %s) from %zu descriptors; %zu keyframes, "
+      "%.0f words each on average -> %s\n",
+      r.model->vocabulary.size(), r.model->vocabulary.hash().c_str(), r.descriptors, r.keyframes,
+      r.words_per_keyframe, o.out.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return tools::runTool("train_place_model", argc, argv, parse, run, report);
 }

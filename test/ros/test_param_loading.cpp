@@ -104,15 +104,17 @@ TEST(ParamLoading, UnknownKeysAreReported) {
 
 TEST(ParamLoading, BridgePeersAndTopics) {
   ParamReader reader{params(R"({robot_name: robot_a, team_key: 0123456789abcdef,
-      peers: [{name: robot_b, host: 127.0.0.1, port: 17002}],
+      peers: [{name: robot_b, host: 127.0.0.1, port: 17002},
+              {name: robot_c, host: 10.0.0.3, port: 17003}],
       topics: [{topic: outbox/scans, priority: bulk, compress: true},
                {topic: outbox/offers, queue: keep_latest, max_age_s: 2, reliable: false}]})")};
   BridgeSettings settings;
   load(reader, settings);
   ASSERT_TRUE(reader.errors().empty()) << reader.errors()[0];
-  ASSERT_EQ(settings.core.peers.size(), 1u);
+  ASSERT_EQ(settings.core.peers.size(), 2u);
   EXPECT_EQ(settings.core.peers[0].name, "robot_b");
   EXPECT_EQ(settings.core.peers[0].port, 17002);
+  EXPECT_EQ(settings.core.peerNames(), (std::vector<std::string>{"robot_b", "robot_c"}));
   ASSERT_EQ(settings.core.topics.size(), 2u);
   EXPECT_EQ(settings.core.topics[0].policy.priority, core::transport::Priority::kBulk);
   EXPECT_TRUE(settings.core.topics[0].compress);

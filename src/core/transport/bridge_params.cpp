@@ -70,4 +70,10 @@ std::vector<std::string> BridgeParams::validate(const std::string& own_robot_nam
   return check.errors();
 }
 
+std::vector<std::string> BridgeParams::peerNames() const {
+  std::vector<std::string> names;
+  for (const PeerConfig& peer : peers) names.push_back(peer.name);
+  return names;
+}
+
 }  // namespace ccir_mapping::core::transport

@@ -72,6 +72,8 @@ struct BridgeParams {
   double stats_period_s = 1.0;
 
   std::vector<std::string> validate(const std::string& own_robot_name) const;
+  /// The teammates' names, in the order of `peers`.
+  std::vector<std::string> peerNames() const;
 };
 
 }  // namespace ccir_mapping::core::transport
