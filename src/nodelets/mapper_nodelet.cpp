@@ -32,7 +32,7 @@ class MapperNodelet final : public PipelineNodelet {
     hooks.rebuilt = [this](std::size_t scans, double seconds) {
       NODELET_INFO("map rebuilt at the optimised poses from %zu scans in %.1f s", scans, seconds);
     };
-    stage_ = std::make_unique<info::MapStage>(settings_.core, hooks);
+    stage_ = std::make_unique<info::MapStage>(settings_.frames.robot_name, settings_.core, hooks);
     info::SharedMap::registerMap(settings_.frames.robot_name, stage_->map());
     advertise<sensor_msgs::PointCloud2>(topics::kMapCloud, 1);
     advertise<MapStats>(topics::kMapStats, topics::kMessageQueueSize);
@@ -65,12 +65,11 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onPeerScan(const Keyframe& keyframe) {
-    if (keyframe.robot == settings_.frames.robot_name) return;
     const auto scan = scanOf(keyframe, "teammate_scans", "teammate scan");
-    if (scan && !stage_->addPeer(keyframe.robot, keyframe.id, scan->first, scan->second)) {
-      count("dropped teammate_scans (held)");
-      NODELET_WARN_THROTTLE(5.0, "ignoring %s's keyframe %lu: it is in the map already",
-                            keyframe.robot.c_str(), static_cast<unsigned long>(keyframe.id));
+    if (!scan) return;
+    if (const auto why = stage_->addPeer(keyframe.robot, keyframe.id, scan->first, scan->second)) {
+      drop("teammate_scans (not added)", "ignoring %s's keyframe %lu: %s", keyframe.robot.c_str(),
+           static_cast<unsigned long>(keyframe.id), why->c_str());
     }
   }
 
@@ -81,7 +80,6 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onTeamTransform(const TeamTransform& team) {
-    if (team.peer == settings_.frames.robot_name) return;
     if (const auto transform = conversions::toTeamFrame(team)) {
       stage_->setTeamTransform(team.peer, *transform);
     } else if (team.valid) {

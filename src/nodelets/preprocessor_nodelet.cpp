@@ -66,7 +66,6 @@ class PreprocessorNodelet final : public PipelineNodelet {
                               getNodeHandle().resolveName(topics::kVelodynePoints).c_str(),
                               missing.c_str());
       }
-      if (msg->header.frame_id.empty()) return dropScan(*msg, {"no frame", "empty frame_id"});
       const auto arrival = stage_->arrive(conversions::toStamp(msg->header.stamp));
       if (!arrival.accepted) return dropScan(*msg, arrival.notices.front());
       for (const auto& notice : arrival.notices)

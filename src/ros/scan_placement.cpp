@@ -64,6 +64,9 @@ std::optional<core::Pose3> ScanPlacement::sensorPose(const std::string& sensor_f
 
 std::vector<ScanPlacement::Placement> ScanPlacement::wait(
     const sensor_msgs::PointCloud2::ConstPtr& cloud) {
+  if (cloud->header.frame_id.empty()) {
+    return {{cloud, std::nullopt, "cannot place it: it has no frame_id"}};
+  }
   std::vector<Placement> placements;
   if (const auto pushed_out = waiting_.push(cloud)) {
     placements.push_back(givenUp(*pushed_out, "waited too long"));

@@ -456,7 +456,7 @@ TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
     rebuilt.push_back(scans);
     changed.notify_all();
   };
-  MapStage stage(params(), hooks);
+  MapStage stage("robot_a", params(), hooks);
   KeyframeMap expected(params());  // the same inputs, placed without a stage
   auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
   for (Stamp stamp : {1, 2}) {
@@ -474,8 +474,10 @@ TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
   EXPECT_FALSE(stage.rebuildIfDue()) << "one rebuild at a time";
   stage.addOwn(3, cloud, at(6, 0));  // placed while the rebuild runs
   expected.addOwn(3, cloud, at(6, 0));
-  EXPECT_TRUE(stage.addPeer("robot_b", 7, cloud, at(1, 1)));
-  EXPECT_FALSE(stage.addPeer("robot_b", 7, cloud, at(1, 1))) << "held already";
+  EXPECT_FALSE(stage.addPeer("robot_b", 7, cloud, at(1, 1)));
+  EXPECT_EQ(stage.addPeer("robot_b", 7, cloud, at(1, 1)), "it is in the map already");
+  EXPECT_EQ(stage.addPeer("robot_a", 8, cloud, at(1, 1)), "it is this robot's own");
+  stage.setTeamTransform("robot_a", at(50, 50));  // ignored: it would place nothing anyway
   {
     std::lock_guard<std::mutex> lock(mutex);
     go_on = true;

@@ -142,6 +142,12 @@ TEST(ScanPlacement, AScanThatCannotBePlacedIsGivenUpWithWhy) {
   EXPECT_EQ(released[0].cloud->header.stamp, ros::Time(2.0));
   EXPECT_EQ(released[0].why,
             "cannot place it (waited too long): no odometry at or after its stamp on '/r/odom'");
+  // A scan without a frame cannot be placed, whatever arrives.
+  released = placement.wait(scan(9.5, ""));
+  ASSERT_EQ(released.size(), 1U);
+  EXPECT_FALSE(released[0].pose);
+  EXPECT_EQ(released[0].why, "cannot place it: it has no frame_id");
+  EXPECT_EQ(placement.waiting(), ScanPlacement::kMaxWaitingScans) << "it did not wait";
 }
 
 }  // namespace

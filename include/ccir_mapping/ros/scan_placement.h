@@ -57,7 +57,7 @@ class ScanPlacement {
   /// Scans that wait at most: two seconds of a VLP-16 at 10 Hz.
   static constexpr std::size_t kMaxWaitingScans = 20;
   /// Lets a scan wait until it can be placed (when kMaxWaitingScans already wait, the oldest is
-  /// given up) and returns release()'s.
+  /// given up; one without a frame_id is given up at once) and returns release()'s.
   std::vector<Placement> wait(const sensor_msgs::PointCloud2::ConstPtr& cloud);
   /// The waiting scans that can be placed now, and those a later scan that could be placed
   /// overtook (given up: what places a scan arrives in time order), in arrival order; the rest

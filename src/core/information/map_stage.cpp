@@ -4,13 +4,15 @@
 
 namespace ccir_mapping::core::information {
 
-MapStage::MapStage(const MapperParams& params, Hooks hooks)
-    : params_(params),
+MapStage::MapStage(std::string robot, const MapperParams& params, Hooks hooks)
+    : robot_(std::move(robot)),
+      params_(params),
       hooks_(std::move(hooks)),
       map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
       keyframes_(params) {}
 
-MapStage::MapStage(const MapperParams& params) : MapStage(params, Hooks{}) {}
+MapStage::MapStage(std::string robot, const MapperParams& params)
+    : MapStage(std::move(robot), params, Hooks{}) {}
 
 MapStage::~MapStage() {
   if (rebuild_thread_.joinable()) rebuild_thread_.join();
@@ -21,15 +23,18 @@ void MapStage::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pos
   insert({keyframes_.addOwn(stamp, std::move(cloud), odom_pose)});
 }
 
-bool MapStage::addPeer(const std::string& robot, KeyframeId id, std::shared_ptr<const Cloud> cloud,
-                       const Pose3& peer_pose) {
+std::optional<std::string> MapStage::addPeer(const std::string& robot, KeyframeId id,
+                                             std::shared_ptr<const Cloud> cloud,
+                                             const Pose3& peer_pose) {
+  if (robot == robot_) return "it is this robot's own";
   std::lock_guard<std::mutex> lock(mutex_);
-  if (keyframes_.holdsPeer(robot, id)) return false;
+  if (keyframes_.holdsPeer(robot, id)) return "it is in the map already";
   insert(keyframes_.addPeer(robot, id, std::move(cloud), peer_pose));
-  return true;
+  return std::nullopt;
 }
 
 void MapStage::setTeamTransform(const std::string& robot, const Pose3& map_from_peer) {
+  if (robot == robot_) return;
   std::lock_guard<std::mutex> lock(mutex_);
   insert(keyframes_.setTeamTransform(robot, map_from_peer));
 }

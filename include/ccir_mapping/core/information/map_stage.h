@@ -9,6 +9,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,9 +39,10 @@ class MapStage {
     std::function<void(std::size_t scans, double seconds)> rebuilt;
   };
 
-  /// Throws std::invalid_argument when params.validate() reports errors.
-  MapStage(const MapperParams& params, Hooks hooks);
-  explicit MapStage(const MapperParams& params);
+  /// The map of robot `robot`. Throws std::invalid_argument when params.validate() reports
+  /// errors.
+  MapStage(std::string robot, const MapperParams& params, Hooks hooks);
+  MapStage(std::string robot, const MapperParams& params);
   /// Waits for a rebuild under way.
   ~MapStage();
   MapStage(const MapStage&) = delete;
@@ -51,9 +53,11 @@ class MapStage {
   /// An own keyframe (sensor frame) with its odometry pose.
   void addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose);
   /// A teammate's scan with its pose in the teammate's frame, placed once the team transform is
-  /// known; false (nothing changes) when the map holds it already.
-  bool addPeer(const std::string& robot, KeyframeId id, std::shared_ptr<const Cloud> cloud,
-               const Pose3& peer_pose);
+  /// known; otherwise why not (nothing changes): the map holds it already, or it is this
+  /// robot's own.
+  std::optional<std::string> addPeer(const std::string& robot, KeyframeId id,
+                                     std::shared_ptr<const Cloud> cloud, const Pose3& peer_pose);
+  /// A teammate's map frame in this robot's (a transform to this robot itself is ignored).
   void setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
@@ -69,6 +73,7 @@ class MapStage {
  private:
   void insert(const std::vector<PlacedScan>& scans);
 
+  const std::string robot_;
   const MapperParams params_;
   const Hooks hooks_;
   std::shared_ptr<SharedMap> map_;
