@@ -1,5 +1,6 @@
 // Backend: keyframes + loop closures -> optimised trajectory, map -> odom and team transforms on
-// tf, TeamTransform messages, pose uncertainty. Callbacks hand their input to the core's
+// tf, TeamTransform messages, teammates' keyframes as the team graph places them, pose
+// uncertainty. Callbacks hand their input to the core's
 // TeamGraphWorker, which optimises on its own thread at optimize_period_s and as soon as a loop
 // closure arrives, so no solve ever holds a manager thread; it also decides where each loop
 // closure goes (core::backend::routeOwnLoop / routeTeammateLoop).
@@ -34,6 +35,7 @@ class BackendNodelet final : public PipelineNodelet {
     worker_ = std::make_unique<Worker>(std::make_unique<TeamGraph>(robot(), settings_.core), hooks);
     advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
+    advertise<TeamKeyframePoses>(topics::kTeamKeyframePoses, topics::kMessageQueueSize);
     advertise<KeyframeUncertainty>(topics::kKeyframeUncertainty, 1);
     advertise<visualization_msgs::MarkerArray>(topics::kLoopClosureMarkers, 1);
     // Inter-robot closures go to the teammates too: each robot verifies only the scans it
@@ -102,10 +104,16 @@ class BackendNodelet final : public PipelineNodelet {
               boost::make_shared<const visualization_msgs::MarkerArray>(
                   conversions::toLoopMarkersMsg(snapshot.loop_lines, map_frame, stamp)));
     }
+    for (const auto& notice : snapshot.notices) warnPerKind(notice.kind, "%s", notice.text.c_str());
     for (const auto& estimate : snapshot.team) {
       publish(topics::kTeamTransforms,
               boost::make_shared<const TeamTransform>(
                   conversions::toTeamTransformMsg(estimate, map_frame, stamp)));
+    }
+    for (const auto& keyframes : snapshot.peer_keyframes) {
+      publish(topics::kTeamKeyframePoses,
+              boost::make_shared<const TeamKeyframePoses>(
+                  conversions::toTeamKeyframePosesMsg(keyframes, map_frame, stamp)));
     }
     if (settings_.publish_tf) {
       // A re-optimisation without a new keyframe (a teammate's scan, a loop closure) must still
@@ -124,7 +132,8 @@ class BackendNodelet final : public PipelineNodelet {
       }
     }
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    last_ = {snapshot.solve_s, snapshot.intra_loops, snapshot.intra_loops_rejected};
+    last_ = {snapshot.solve_s, snapshot.intra_loops, snapshot.intra_loops_rejected,
+             snapshot.inter_loops, snapshot.inter_loops_rejected};
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
@@ -132,13 +141,15 @@ class BackendNodelet final : public PipelineNodelet {
     status.addf("last optimisation s", "%.3f", last_.solve_s);
     status.add("intra-robot loops", last_.intra_loops);
     status.add("intra-robot loops rejected", last_.intra_loops_rejected);
+    status.add("inter-robot loops in the graph", last_.inter_loops);
+    status.add("inter-robot loops rejected", last_.inter_loops_rejected);
   }
 
   ros_params::BackendSettings settings_;
   std::mutex stats_mutex_;
   struct {
     double solve_s = 0.0;
-    int intra_loops = 0, intra_loops_rejected = 0;
+    int intra_loops = 0, intra_loops_rejected = 0, inter_loops = 0, inter_loops_rejected = 0;
   } last_;  // the newest optimisation's, for diagnostics
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_stamp_;         // of the last transforms sent (worker thread only)

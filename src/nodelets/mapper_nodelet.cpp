@@ -1,5 +1,6 @@
 // Mapper: own keyframes and teammates' scans -> the robot's occupancy map (OctoMap), which follows
-// the Backend's optimised poses by rebuilding (core/information/map_stage.h). Publishes the
+// the Backend's optimised poses (own and, from the team graph, teammates') by rebuilding
+// (core/information/map_stage.h). Publishes the
 // occupied voxels while someone listens and the map's entropy and known volume; saves the map on
 // ~save_map and at shutdown; shares it in-process with the Broker (core/information/shared_map.h).
 #include <nav_msgs/Path.h>
@@ -40,6 +41,7 @@ class MapperNodelet final : public PipelineNodelet {
     subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize, &MapperNodelet::onPeerScan);
     subscribe(topics::kTrajectory, topics::kLatestOnlyQueueSize, &MapperNodelet::onTrajectory);
     subscribe(topics::kTeamTransforms, topics::kMessageQueueSize, &MapperNodelet::onTeamTransform);
+    subscribe(topics::kTeamKeyframePoses, topics::kMessageQueueSize, &MapperNodelet::onPeerPoses);
     save_srv_ = getPrivateNodeHandle().advertiseService("save_map", &MapperNodelet::onSave, this);
     createPeriodicTimer(settings_.core.publish_period_s,
                         [this] { measured("statistics", [this] { onTimer(); }); });
@@ -84,6 +86,17 @@ class MapperNodelet final : public PipelineNodelet {
       stage_->setTeamTransform(team.peer, *transform);
     } else if (team.valid) {
       NODELET_WARN_THROTTLE(5.0, "ignoring a non-finite team transform to %s", team.peer.c_str());
+    }
+  }
+
+  void onPeerPoses(const TeamKeyframePoses& msg) {
+    if (const auto poses = conversions::toKeyframePoses(msg)) {
+      stage_->setPeerPoses(msg.robot, *poses);
+    } else {
+      drop("team_keyframe_poses",
+           "ignoring %s's keyframe poses: lengths differ or a pose is "
+           "not finite",
+           msg.robot.c_str());
     }
   }
 

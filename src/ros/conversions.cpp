@@ -186,7 +186,8 @@ visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::L
     m.color.b = colours[kind][2];
     m.color.a = 1.0F;
     for (const auto& line : lines) {
-      if ((line.inter_robot ? 2 : (line.accepted ? 0 : 1)) != kind) continue;
+      // Rejected ones red whichever robots they join.
+      if ((!line.accepted ? 1 : (line.inter_robot ? 2 : 0)) != kind) continue;
       m.points.push_back(tf2::toMsg(line.from));
       m.points.push_back(tf2::toMsg(line.to));
     }
@@ -231,6 +232,29 @@ std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendS
 
 std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg) {
   return msg.valid ? toPose(msg.transform) : std::nullopt;
+}
+
+TeamKeyframePoses toTeamKeyframePosesMsg(const core::team::PeerKeyframes& keyframes,
+                                         const std::string& map_frame, const ros::Time& stamp) {
+  TeamKeyframePoses msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = map_frame;
+  msg.robot = keyframes.robot;
+  msg.keyframe_ids.assign(keyframes.ids.begin(), keyframes.ids.end());
+  for (const auto& pose : keyframes.poses) msg.poses.push_back(toPoseMsg(pose));
+  return msg;
+}
+
+std::optional<std::vector<std::pair<core::KeyframeId, core::Pose3>>> toKeyframePoses(
+    const TeamKeyframePoses& msg) {
+  if (msg.keyframe_ids.size() != msg.poses.size()) return std::nullopt;
+  std::vector<std::pair<core::KeyframeId, core::Pose3>> pairs;
+  for (std::size_t i = 0; i < msg.poses.size(); ++i) {
+    const auto pose = toPose(msg.poses[i]);
+    if (!pose) return std::nullopt;
+    pairs.emplace_back(msg.keyframe_ids[i], *pose);
+  }
+  return pairs;
 }
 
 KeyframeUncertainty toKeyframeUncertaintyMsg(const std::string& robot,

@@ -166,6 +166,9 @@ void load(ParamReader& reader, BackendSettings& config) {
   reader.read("odom_sigma_rad_per_rad", p.odometry.sigma_rad_per_rad);
   reader.read("min_team_inliers", p.min_team_inliers);
   reader.read("team_inlier_margin", p.team_inlier_margin);
+  reader.read("team_graph", p.team_graph);
+  reader.read("team_disagreement_m", p.team_disagreement_m);
+  reader.read("team_disagreement_deg", p.team_disagreement_deg);
   reader.addErrors(p.validate());
 }
 

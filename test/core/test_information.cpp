@@ -436,6 +436,32 @@ TEST(KeyframeMap, FollowsOptimizedPosesAndPlacesTeammatesOnceTheirFrameIsKnown) 
   EXPECT_EQ(map.placeAll().size(), 5U);
 }
 
+TEST(KeyframeMap, PlacesTeammatesScansWhereTheTeamGraphPutsThemAndRebuildsWhenTheyMove) {
+  KeyframeMap map(params());
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  // The graph's pose of keyframe 7 arrives before its scan, and wins over the transform.
+  EXPECT_TRUE(map.setPeerPoses("robot_b", {{7, at(5, 5, 30)}}).empty()) << "no scan yet";
+  const auto first = map.addPeer("robot_b", 7, cloud, at(1, 1));
+  ASSERT_EQ(first.size(), 1U) << "placed by the graph before any team transform";
+  EXPECT_TRUE(first[0].map_from_sensor.isApprox(at(5, 5, 30)));
+  EXPECT_TRUE(map.addPeer("robot_b", 8, cloud, at(2, 1)).empty()) << "neither pose nor frame";
+  EXPECT_EQ(map.pendingPeerScans(), 1U);
+  const auto second = map.setTeamTransform("robot_b", at(10, 0));
+  ASSERT_EQ(second.size(), 1U) << "keyframe 8 by the transform; 7 stays at the graph's pose";
+  EXPECT_TRUE(second[0].map_from_sensor.isApprox(at(12, 1)));
+  EXPECT_FALSE(map.rebuildDue()) << "7 did not move";
+  // The graph moves 8 by 0.1 m (below the 0.2 m threshold), then 7 by 0.5 m.
+  EXPECT_TRUE(map.setPeerPoses("robot_b", {{8, at(12, 1.1)}}).empty());
+  EXPECT_FALSE(map.rebuildDue());
+  map.setPeerPoses("robot_b", {{7, at(5, 5.5, 30)}});
+  EXPECT_TRUE(map.rebuildDue());
+  const auto all = map.placeAll();
+  ASSERT_EQ(all.size(), 2U);
+  EXPECT_TRUE(all[0].map_from_sensor.isApprox(at(5, 5.5, 30)));
+  EXPECT_TRUE(all[1].map_from_sensor.isApprox(at(12, 1.1)));
+  EXPECT_EQ(map.peerScans(), 2U);
+}
+
 TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
   std::mutex mutex;
   std::condition_variable changed;

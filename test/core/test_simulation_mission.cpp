@@ -135,6 +135,20 @@ TEST(Mission, SameSeedSameRecordingOtherSeedOther) {
     ASSERT_TRUE(a.odometry_[i].odometry.isApprox(b.odometry_[i].odometry, 0.0));
   }
   EXPECT_NE(a.scans_.back().points.front().x, c.scans_.back().points.front().x);
+
+  // Odometry alone (back-end benchmarks): no scans, the very same samples.
+  const Mission mission([] {
+    MissionParams params = shortMission();
+    params.seed = 7;
+    return params;
+  }());
+  Recorder odometry_only;
+  mission.record(1, odometry_only, /*scans=*/false);
+  EXPECT_TRUE(odometry_only.scans_.empty());
+  ASSERT_EQ(odometry_only.odometry_.size(), a.odometry_.size());
+  for (size_t i = 0; i < a.odometry_.size(); ++i) {
+    ASSERT_TRUE(a.odometry_[i].odometry.isApprox(odometry_only.odometry_[i].odometry, 0.0));
+  }
 }
 
 TEST(Mission, OverlapControlsHowMuchTeammatesShareTheirPaths) {

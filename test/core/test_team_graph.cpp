@@ -30,6 +30,7 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
   // the default odometry noise their drift would swamp the 10 cm loops.
   BackendParams params;
   params.odometry = {1e-3, 1e-4, 1e-3};
+  params.team_graph = false;  // the EM alone (the graph's part: the Corridor tests below)
   TeamGraph graph("robot_a", params);
   for (std::size_t i = 0; i < s.poses_a.size(); ++i) {
     ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(100.0 + i), s.poses_a[i]));
@@ -133,6 +134,222 @@ TEST(TeamGraph, LoopsSeenAfterTheTeammatesDriftAgreeAndTheLeastDriftedWeighMost)
   const Pose3 error = truth.inverse() * alignment.transform;
   EXPECT_LT(error.translation().norm(), 0.3);
   EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, 1.0);
+}
+
+// Two robots drive one 60 m corridor side by side, 0.5 m apart; robot b's frame is `truth` in
+// robot a's, and b's odometry turns 0.1 deg too far per metre (3 m off at the far end):
+//
+//   a:  0---1---2--- ... ---14--- ... ---45--- ... ---59     exact odometry
+//       :   :   :           :            :            :
+//   b:  100-101-102- ... ---114-- ... ---145-- ... ---159    drifting odometry
+//       \____ first meeting ____/       \__ second meeting _/
+//
+// Each meeting closes every place it passes (1 cm, 0.06 deg).
+class Corridor : public ::testing::Test {
+ protected:
+  static constexpr int kLength = 60;
+  const Pose3 truth =
+      Pose3(Eigen::Translation3d(5, 2, 0)) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
+
+  Corridor() {
+    for (int i = 0; i < kLength; ++i) {
+      own_.push_back(Pose3(Eigen::Translation3d(i, 0, 0)));
+      true_b_.push_back(Pose3(Eigen::Translation3d(i, 0.5, 0)));  // in a's frame
+      const Pose3 b = truth.inverse() * true_b_.back();
+      odom_b_.push_back(i == 0 ? b
+                               : odom_b_.back() *
+                                     Eigen::AngleAxisd(0.1 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+                                     (truth.inverse() * true_b_[i - 1]).inverse() * b);
+    }
+  }
+
+  void addKeyframes(TeamGraph& graph, int first, int last) const {
+    for (int i = first; i <= last; ++i) {
+      ASSERT_TRUE(graph.addKeyframe(i, fromSeconds(i), own_[i]));
+      ASSERT_TRUE(graph.addPeerKeyframe("robot_b", 100 + i, odom_b_[i]));
+    }
+  }
+  /// a's keyframe i sees b's keyframe j (truly where the measurement says when j == i).
+  LoopClosureData loop(int i, int j, const Pose3& offset = Pose3::Identity()) const {
+    LoopClosureData l;
+    l.robot_from = "robot_a";
+    l.keyframe_from = i;
+    l.robot_to = "robot_b";
+    l.keyframe_to = 100 + j;
+    l.relative = own_[i].inverse() * true_b_[i] * offset;
+    l.covariance = Matrix6::Identity() * 1e-4;
+    return l;
+  }
+  void meet(TeamGraph& graph, int first, int last) const {
+    for (int i = first; i <= last; ++i) ASSERT_TRUE(graph.addLoopClosure(loop(i, i)));
+  }
+  /// Mean distance of b's keyframes `first`..`last` in the graph from where they truly are.
+  double errorOf(const BackendSnapshot& snapshot, int first, int last) const {
+    double sum = 0.0;
+    int n = 0;
+    for (const auto& peer : snapshot.peer_keyframes) {
+      for (std::size_t k = 0; k < peer.ids.size(); ++k) {
+        const int i = static_cast<int>(peer.ids[k]) - 100;
+        if (i < first || i > last) continue;
+        sum += (peer.poses[k].translation() - true_b_[i].translation()).norm();
+        ++n;
+      }
+    }
+    EXPECT_EQ(n, last - first + 1) << "b's keyframes in the graph";
+    return n ? sum / n : 1e9;
+  }
+  static const TeamEstimate& estimateOf(const BackendSnapshot& snapshot) {
+    EXPECT_EQ(snapshot.team.size(), 1U);
+    return snapshot.team.front();
+  }
+  double transformError(const BackendSnapshot& snapshot) const {
+    return (truth.inverse() * estimateOf(snapshot).alignment.transform).translation().norm();
+  }
+
+  std::vector<Pose3> own_, true_b_, odom_b_;
+};
+
+TEST_F(Corridor, AfterTheSecondMeetingTheTeammatesFarKeyframesMoveTowardsTheTruth) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  const BackendSnapshot first = graph.optimize();
+  ASSERT_TRUE(estimateOf(first).in_graph) << estimateOf(first).alignment.reason;
+  ASSERT_EQ(first.peer_keyframes.size(), 1U);
+  EXPECT_EQ(first.peer_keyframes[0].robot, "robot_b");
+  EXPECT_EQ(first.inter_loops, 15);
+  EXPECT_EQ(first.inter_loops_rejected, 0);
+  ASSERT_EQ(first.notices.size(), 1U);
+  EXPECT_EQ(first.notices[0].text, "robot_b joins the graph: 15 of 15 closures agree");
+  const double far_before = errorOf(first, 45, 59);
+  EXPECT_GT(far_before, 1.0) << "placed by its drifting odometry";
+  EXPECT_LT(errorOf(first, 0, 14), 0.1);
+
+  meet(graph, 45, 59);
+  const BackendSnapshot second = graph.optimize();
+  EXPECT_EQ(second.inter_loops, 30);
+  EXPECT_EQ(second.inter_loops_rejected, 0) << "true closures seen after drift";
+  const double far_after = errorOf(second, 45, 59);
+  // Towards the truth, not onto it: robot a's own odometry is as uncertain as b's to the graph,
+  // so the two share b's drift (a's far end moves too); relative to a, b is where it should be
+  // (the loop lines below).
+  EXPECT_LT(far_after, 0.75 * far_before);
+  EXPECT_LT(errorOf(second, 15, 44), errorOf(first, 15, 44)) << "between the meetings too";
+  // The graph's transform (its gauge of b's part) stays where b's frame truly is, and the own
+  // trajectory stays consistent with it.
+  EXPECT_LT(transformError(second), 0.1);
+  EXPECT_NEAR(second.poses.back().translation().x(), kLength - 1, 0.05);
+  EXPECT_GT(second.poses.back().translation().y(), 0.5) << "a shares b's drift";
+  for (const auto& line : second.loop_lines) {  // the two trajectories agree with each other
+    EXPECT_TRUE(line.inter_robot && line.accepted);
+    EXPECT_NEAR((line.from - line.to).norm(), 0.5, 0.05);
+  }
+}
+
+TEST_F(Corridor, AFalseClosureAmongTrueOnesIsSwitchedOff) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  // a's keyframe 30 "sees" b's keyframe 22 where b's keyframe 30 is (the mine repeats).
+  ASSERT_TRUE(graph.addLoopClosure(loop(30, 22)));
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_TRUE(estimateOf(snapshot).in_graph);
+  EXPECT_EQ(snapshot.inter_loops, 16);
+  EXPECT_EQ(snapshot.inter_loops_rejected, 1);
+  int rejected = 0;
+  for (const auto& line : snapshot.loop_lines) {
+    if (line.accepted) continue;
+    ++rejected;
+    EXPECT_TRUE(line.inter_robot);
+    EXPECT_NEAR(line.from.x(), 30.0, 0.1) << "the false one";
+  }
+  EXPECT_EQ(rejected, 1);
+  EXPECT_LT(errorOf(snapshot, 15, 30), 1.0) << "b's keyframe 22 not pulled 8 m along";
+}
+
+TEST_F(Corridor, OneFalseClosureAloneNeverMakesATeamTransform) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  ASSERT_TRUE(graph.addLoopClosure(loop(30, 22)));
+  const BackendSnapshot snapshot = graph.optimize();
+  EXPECT_FALSE(estimateOf(snapshot).alignment.found);
+  EXPECT_FALSE(estimateOf(snapshot).in_graph);
+  EXPECT_TRUE(snapshot.peer_keyframes.empty());
+  EXPECT_EQ(snapshot.inter_loops, 0);
+  EXPECT_TRUE(snapshot.poses.back().isApprox(own_.back(), 1e-9)) << "own graph untouched";
+}
+
+TEST_F(Corridor, TeammatesKeyframesWaitForTheTransformAndArePlacedOnceItIsFound) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 5);  // 6 closures: fewer than min_team_inliers
+  const BackendSnapshot waiting = graph.optimize();
+  EXPECT_FALSE(estimateOf(waiting).alignment.found);
+  EXPECT_TRUE(waiting.peer_keyframes.empty());
+  meet(graph, 6, 14);
+  const BackendSnapshot placed = graph.optimize();
+  ASSERT_TRUE(estimateOf(placed).in_graph);
+  EXPECT_LT(errorOf(placed, 0, 14), 0.1) << "placed and optimised in the same optimize()";
+  EXPECT_EQ(placed.peer_keyframes[0].ids.size(), static_cast<std::size_t>(kLength));
+}
+
+TEST_F(Corridor, ALaterDisagreeingEmTransformIsLoggedAndTheGraphKeptWhileItsSwitchesAgreeAsWell) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  ASSERT_TRUE(estimateOf(graph.optimize()).in_graph);
+  // Then 18 closures that agree with each other and not with the truth: where the mine repeats
+  // every 8 m, a's keyframes 30..47 "see" b's 22..39. The EM now prefers them (18 inliers to
+  // 15, its margin of 3); the graph's switches keep the 15 true ones, within that margin.
+  for (int i = 30; i < 48; ++i) ASSERT_TRUE(graph.addLoopClosure(loop(i, i - 8)));
+  const BackendSnapshot snapshot = graph.optimize();
+  const TeamEstimate& estimate = estimateOf(snapshot);
+  ASSERT_EQ(snapshot.notices.size(), 1U);
+  EXPECT_EQ(snapshot.notices[0].kind, "team disagreement");
+  EXPECT_NE(snapshot.notices[0].text.find(
+                "keeping the graph's: its switches accept 15 closures, the EM 18"),
+            std::string::npos)
+      << snapshot.notices[0].text;
+  EXPECT_TRUE(estimate.in_graph);
+  EXPECT_LT(transformError(snapshot), 0.1) << "the graph's transform, not the EM's";
+  EXPECT_EQ(snapshot.inter_loops_rejected, 18);
+}
+
+TEST_F(Corridor, ADisagreeingEmTransformReplacesAGraphWhoseSwitchesRejectedItsClosures) {
+  BackendParams params;
+  params.min_team_inliers = 5;
+  params.team_inlier_margin = 1;
+  TeamGraph graph("robot_a", params);
+  addKeyframes(graph, 0, kLength - 1);
+  // First 6 false closures (b's keyframes 8 m along): b joins where it is not.
+  for (int i = 20; i < 26; ++i) ASSERT_TRUE(graph.addLoopClosure(loop(i, i - 8)));
+  ASSERT_TRUE(estimateOf(graph.optimize()).in_graph);
+  // Then 30 true ones: the EM moves to the truth; the graph, 8 m off, accepts only the 6.
+  meet(graph, 0, 29);
+  const BackendSnapshot snapshot = graph.optimize();
+  ASSERT_EQ(snapshot.notices.size(), 1U);
+  EXPECT_EQ(snapshot.notices[0].kind, "team disagreement");
+  EXPECT_NE(snapshot.notices[0].text.find("the graph accepts only 6 closures, the EM 30: robot_b "
+                                          "placed again with the EM transform"),
+            std::string::npos)
+      << snapshot.notices[0].text;
+  EXPECT_TRUE(estimateOf(snapshot).in_graph);
+  EXPECT_LT(transformError(snapshot), 0.1) << "re-optimised from the EM's transform";
+  EXPECT_EQ(snapshot.inter_loops_rejected, 6);
+}
+
+TEST_F(Corridor, WithoutTheTeamGraphTheTeammateStaysOutAndIsPlacedByTheEmAlone) {
+  BackendParams params;
+  params.team_graph = false;
+  TeamGraph graph("robot_a", params);
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  const BackendSnapshot snapshot = graph.optimize();
+  EXPECT_TRUE(estimateOf(snapshot).alignment.found);
+  EXPECT_FALSE(estimateOf(snapshot).in_graph);
+  EXPECT_TRUE(snapshot.peer_keyframes.empty());
+  EXPECT_EQ(snapshot.inter_loops, 0);
+  EXPECT_EQ(snapshot.loop_lines.size(), 15U) << "the EM's inliers";
 }
 
 TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {

@@ -603,6 +603,31 @@ TEST(Conversions, TfCarriesTheOdometryCorrectionAndTheTransformsFound) {
   EXPECT_TRUE(toPose(transforms[1].transform)->isApprox(found.alignment.transform, 1e-12));
 }
 
+TEST(Conversions, TeamKeyframePosesRoundTrip) {
+  core::team::PeerKeyframes keyframes;
+  keyframes.robot = "robot_b";
+  keyframes.ids = {3, 8};
+  keyframes.poses = {core::Pose3(Eigen::Translation3d(1, 2, 3)),
+                     core::Pose3(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()))};
+  const TeamKeyframePoses msg = toTeamKeyframePosesMsg(keyframes, "robot_a/map", ros::Time(5));
+  EXPECT_EQ(msg.header.frame_id, "robot_a/map");
+  EXPECT_EQ(msg.header.stamp, ros::Time(5));
+  EXPECT_EQ(msg.robot, "robot_b");
+  const auto poses = toKeyframePoses(msg);
+  ASSERT_TRUE(poses);
+  ASSERT_EQ(poses->size(), 2U);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ((*poses)[i].first, keyframes.ids[i]);
+    EXPECT_TRUE((*poses)[i].second.isApprox(keyframes.poses[i], 1e-12));
+  }
+  TeamKeyframePoses broken = msg;
+  broken.poses[1].position.x = std::nan("");
+  EXPECT_FALSE(toKeyframePoses(broken)) << "a non-finite pose";
+  broken = msg;
+  broken.keyframe_ids.pop_back();
+  EXPECT_FALSE(toKeyframePoses(broken)) << "lengths differ";
+}
+
 TEST(Conversions, UncertaintyFeaturesAndCorrespondences) {
   std_msgs::Header header;
   header.stamp = ros::Time(3);
@@ -668,6 +693,7 @@ TEST(Conversions, LoopMarkersDrawEachKindAndDeleteEmptyOnes) {
   kept.to = Eigen::Vector3d(1, 2, 3);
   core::team::LoopLine inter;
   inter.inter_robot = true;
+  inter.accepted = true;
   const auto markers = toLoopMarkersMsg({kept, inter, kept}, "robot_a/map", ros::Time(3));
   ASSERT_EQ(markers.markers.size(), 3U);
   EXPECT_EQ(markers.markers[0].ns, "loops kept");
@@ -676,6 +702,11 @@ TEST(Conversions, LoopMarkersDrawEachKindAndDeleteEmptyOnes) {
   EXPECT_EQ(markers.markers[0].action, visualization_msgs::Marker::ADD);
   EXPECT_EQ(markers.markers[1].action, visualization_msgs::Marker::DELETE) << "none rejected";
   EXPECT_EQ(markers.markers[2].points.size(), 2U);
+  // A rejected closure is red whichever robots it joins.
+  inter.accepted = false;
+  const auto rejected = toLoopMarkersMsg({kept, inter}, "robot_a/map", ros::Time(3));
+  EXPECT_EQ(rejected.markers[1].points.size(), 2U);
+  EXPECT_EQ(rejected.markers[2].action, visualization_msgs::Marker::DELETE);
   for (const auto& m : markers.markers) EXPECT_EQ(m.header.frame_id, "robot_a/map");
 }
 

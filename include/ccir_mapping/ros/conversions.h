@@ -28,6 +28,7 @@
 #include "ccir_mapping/ScanReceipt.h"
 #include "ccir_mapping/ScanRequest.h"
 #include "ccir_mapping/SharedScan.h"
+#include "ccir_mapping/TeamKeyframePoses.h"
 #include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
@@ -75,6 +76,14 @@ TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
 /// The teammate's map frame in this robot's, or nullopt unless the message is valid and its
 /// transform finite.
 std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg);
+
+/// A teammate's keyframes as the team graph placed them, in `map_frame`.
+TeamKeyframePoses toTeamKeyframePosesMsg(const core::team::PeerKeyframes& keyframes,
+                                         const std::string& map_frame, const ros::Time& stamp);
+/// (keyframe, pose) pairs, or nullopt when ids and poses differ in length or a pose is not
+/// finite (with a unit quaternion).
+std::optional<std::vector<std::pair<core::KeyframeId, core::Pose3>>> toKeyframePoses(
+    const TeamKeyframePoses& msg);
 
 /// Pose uncertainty u_k of `robot`'s keyframes (same length).
 KeyframeUncertainty toKeyframeUncertaintyMsg(const std::string& robot,

@@ -19,6 +19,8 @@ constexpr char kKeyframeUncertainty[] = "keyframe_uncertainty";
 /// Teammates' scans, decoded from their wire form by the Broker.
 constexpr char kTeammateScans[] = "teammate_scans";
 constexpr char kTeamTransforms[] = "team_transforms";
+/// Teammates' keyframes as this robot's team graph places them (TeamKeyframePoses).
+constexpr char kTeamKeyframePoses[] = "team_keyframe_poses";
 constexpr char kMapCloud[] = "map_cloud";
 constexpr char kMapStats[] = "map_stats";
 constexpr char kLoopClosureMarkers[] = "loop_closure_markers";

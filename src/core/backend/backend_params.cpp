@@ -40,6 +40,8 @@ std::vector<std::string> BackendParams::validate() const {
   check.inRange("odom_sigma_rad_per_rad", odometry.sigma_rad_per_rad, 0.0, 10.0);
   check.inRange("min_team_inliers", min_team_inliers, 3, 100000);
   check.inRange("team_inlier_margin", team_inlier_margin, 0, 100000);
+  check.inHalfOpenRange("team_disagreement_m", team_disagreement_m, 0.0, 1000.0);
+  check.inHalfOpenRange("team_disagreement_deg", team_disagreement_deg, 0.0, 180.0);
   check.inRange("optimize_period_s", optimize_period_s, 0.01, 3600.0);
   check.inRange("max_solve_time_s", max_solve_time_s, 0.001, 60.0);
   check.inRange("max_iterations", max_iterations, 1, 10000);

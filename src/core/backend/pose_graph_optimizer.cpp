@@ -1,5 +1,6 @@
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -237,7 +238,14 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
   const std::vector<double> initial_switches(graph.edges.size(), linear ? 1.0 : 10.0);
   std::vector<double> switches = initial_switches;
   const PoseGraph initial = graph;
-  solve(graph, switches, result);
+  // max_solve_time_s bounds the whole optimisation: each solve gets what the ones before left,
+  // and the optional ones (retry, refinement) are skipped when nothing is left.
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(params_.max_solve_time_s);
+  const auto remaining = [&] {
+    return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+  };
+  solve(graph, switches, result, params_.max_solve_time_s);
   classify(graph, switches, result);
 
   // Most loops off can mean false loops, or true ones seen after drift larger than their
@@ -250,7 +258,7 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
     rejected += graph.edges[k].loop && !result.inliers[k];
   }
   if (params_.uncertainty_aware_start && params_.kernel != RobustKernel::kNone &&
-      2 * rejected > loops) {
+      2 * rejected > loops && remaining() > 0.0) {
     PoseGraph inflated = initial;
     const std::vector<Information> information = chainInflatedInformation(initial);
     for (std::size_t k = 0; k < inflated.edges.size(); ++k) {
@@ -258,13 +266,13 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
     }
     std::vector<double> retry_switches = initial_switches;
     OptimizationResult first;
-    solve(inflated, retry_switches, first);
+    solve(inflated, retry_switches, first, remaining());
     PoseGraph retry = initial;
     retry.poses = inflated.poses;
     OptimizationResult second;
     second.weights = result.weights;
     second.inliers = result.inliers;
-    solve(retry, retry_switches, second);
+    solve(retry, retry_switches, second, std::max(remaining(), 1e-3));
     second.iterations += first.iterations + result.iterations;
     second.solve_s += first.solve_s + result.solve_s;
     if (second.usable && second.final_cost < result.final_cost) {
@@ -278,7 +286,7 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
       result.solve_s = second.solve_s;
     }
   }
-  if (params_.refine_inliers && params_.kernel != RobustKernel::kNone) {
+  if (params_.refine_inliers && params_.kernel != RobustKernel::kNone && remaining() > 0.0) {
     // Loops kept only partly on still pull a little: finish with the kept loops at full weight
     // and the rejected ones out.
     PoseGraph kept = graph;
@@ -291,7 +299,7 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
     }
     std::vector<double> unused(kept.edges.size(), 1.0);
     OptimizationResult refined;
-    solve(kept, unused, refined);
+    solve(kept, unused, refined, remaining());
     if (refined.usable) {
       graph.poses = kept.poses;
       result.iterations += refined.iterations;
@@ -331,7 +339,7 @@ double PoseGraphOptimizer::dcsPhi(int dimension) const {
 }
 
 void PoseGraphOptimizer::solve(PoseGraph& graph, std::vector<double>& switches,
-                               OptimizationResult& result) const {
+                               OptimizationResult& result, double time_limit_s) const {
   const bool linear = params_.switch_function == SwitchFunction::kLinear;
   const double switch_start = linear ? 1.0 : 10.0;
 
@@ -385,7 +393,7 @@ void PoseGraphOptimizer::solve(PoseGraph& graph, std::vector<double>& switches,
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   options.max_num_iterations = params_.max_iterations;
-  options.max_solver_time_in_seconds = params_.max_solve_time_s;
+  options.max_solver_time_in_seconds = std::max(time_limit_s, 1e-3);
   options.num_threads = params_.threads;
   options.function_tolerance = 1e-7;
   options.logging_type = ceres::SILENT;

@@ -23,12 +23,41 @@ PlacedScan KeyframeMap::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud,
   return {std::move(cloud), map_pose};
 }
 
+std::optional<Pose3> KeyframeMap::poseOf(const Teammate& t, KeyframeId id, const Peer& scan) {
+  if (const auto graph = t.graph_poses.find(id); graph != t.graph_poses.end()) {
+    return graph->second;
+  }
+  if (t.known) return t.map_from_peer * scan.peer_pose;
+  return std::nullopt;
+}
+
+std::vector<PlacedScan> KeyframeMap::update(Teammate& t) {
+  std::vector<PlacedScan> placed;
+  for (auto& [id, scan] : t.scans) {
+    const auto pose = poseOf(t, id, scan);
+    if (!pose) continue;
+    if (scan.placed) {
+      rebuild_due_ |= moved(scan.inserted_pose, *pose);
+      continue;
+    }
+    scan.placed = true;
+    scan.inserted_pose = *pose;
+    placed.push_back({scan.cloud, *pose});
+  }
+  return placed;
+}
+
 std::vector<PlacedScan> KeyframeMap::addPeer(const std::string& robot, KeyframeId id,
                                              std::shared_ptr<const Cloud> cloud,
                                              const Pose3& peer_pose) {
   Teammate& t = teammates_[robot];
-  if (!t.scans.emplace(id, Peer{cloud, peer_pose}).second || !t.known) return {};
-  return {{std::move(cloud), t.map_from_peer * peer_pose}};
+  const auto [it, added] = t.scans.emplace(id, Peer{std::move(cloud), peer_pose});
+  if (!added) return {};
+  const auto pose = poseOf(t, id, it->second);
+  if (!pose) return {};
+  it->second.placed = true;
+  it->second.inserted_pose = *pose;
+  return {{it->second.cloud, *pose}};
 }
 
 bool KeyframeMap::holdsPeer(const std::string& robot, KeyframeId id) const {
@@ -39,17 +68,16 @@ bool KeyframeMap::holdsPeer(const std::string& robot, KeyframeId id) const {
 std::vector<PlacedScan> KeyframeMap::setTeamTransform(const std::string& robot,
                                                       const Pose3& map_from_peer) {
   Teammate& t = teammates_[robot];
-  const bool first = !t.known;
   t.map_from_peer = map_from_peer;
   t.known = true;
-  if (!first) {
-    rebuild_due_ |= moved(t.inserted_transform, map_from_peer);
-    return {};
-  }
-  t.inserted_transform = map_from_peer;
-  std::vector<PlacedScan> placed;
-  for (const auto& [id, s] : t.scans) placed.push_back({s.cloud, map_from_peer * s.peer_pose});
-  return placed;
+  return update(t);
+}
+
+std::vector<PlacedScan> KeyframeMap::setPeerPoses(
+    const std::string& robot, const std::vector<std::pair<KeyframeId, Pose3>>& poses) {
+  Teammate& t = teammates_[robot];
+  for (const auto& [id, pose] : poses) t.graph_poses[id] = pose;
+  return update(t);
 }
 
 void KeyframeMap::setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses) {
@@ -69,9 +97,13 @@ std::vector<PlacedScan> KeyframeMap::placeAll() {
     placed.push_back({k.cloud, k.map_pose});
   }
   for (auto& [robot, t] : teammates_) {
-    if (!t.known) continue;
-    t.inserted_transform = t.map_from_peer;
-    for (const auto& [id, s] : t.scans) placed.push_back({s.cloud, t.map_from_peer * s.peer_pose});
+    for (auto& [id, scan] : t.scans) {
+      const auto pose = poseOf(t, id, scan);
+      if (!pose) continue;
+      scan.placed = true;
+      scan.inserted_pose = *pose;
+      placed.push_back({scan.cloud, *pose});
+    }
   }
   rebuild_due_ = false;
   return placed;
@@ -79,13 +111,17 @@ std::vector<PlacedScan> KeyframeMap::placeAll() {
 
 std::size_t KeyframeMap::peerScans() const {
   std::size_t n = 0;
-  for (const auto& [robot, t] : teammates_) n += t.known ? t.scans.size() : 0;
+  for (const auto& [robot, t] : teammates_) {
+    for (const auto& [id, scan] : t.scans) n += scan.placed;
+  }
   return n;
 }
 
 std::size_t KeyframeMap::pendingPeerScans() const {
   std::size_t n = 0;
-  for (const auto& [robot, t] : teammates_) n += t.known ? 0 : t.scans.size();
+  for (const auto& [robot, t] : teammates_) {
+    for (const auto& [id, scan] : t.scans) n += !scan.placed;
+  }
   return n;
 }
 

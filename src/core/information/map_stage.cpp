@@ -39,6 +39,13 @@ void MapStage::setTeamTransform(const std::string& robot, const Pose3& map_from_
   insert(keyframes_.setTeamTransform(robot, map_from_peer));
 }
 
+void MapStage::setPeerPoses(const std::string& robot,
+                            const std::vector<std::pair<KeyframeId, Pose3>>& poses) {
+  if (robot == robot_) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  insert(keyframes_.setPeerPoses(robot, poses));
+}
+
 void MapStage::setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses) {
   std::lock_guard<std::mutex> lock(mutex_);
   keyframes_.setOptimizedPoses(poses);

@@ -173,7 +173,7 @@ void Mission::planRobots() {
   }
 }
 
-void Mission::record(int index, RecordingSink& sink) const {
+void Mission::record(int index, RecordingSink& sink, bool scans) const {
   const RobotPlan& robot = robots_.at(static_cast<size_t>(index));
   const Stamp begin = startStamp() + fromSeconds(robot.start_offset_s);
   const Stamp end = endStamp();
@@ -194,6 +194,10 @@ void Mission::record(int index, RecordingSink& sink) const {
     const bool odom_due = odom_stamp <= end;
     if (!scan_due && !odom_due) break;
     if (scan_due && (!odom_due || published <= odom_stamp)) {
+      if (!scans) {
+        ++k_scan;
+        continue;
+      }
       const double offset = toSeconds(scan_stamp - begin);
       const auto sensor_pose = [&](double t) {
         return robot.trajectory.poseAt(offset + t) * mount;

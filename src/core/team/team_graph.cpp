@@ -1,7 +1,9 @@
 #include "ccir_mapping/core/team/team_graph.h"
 
 #include <chrono>
+#include <cstdio>
 #include <stdexcept>
+#include <tuple>
 
 #include <Eigen/Geometry>
 
@@ -91,89 +93,279 @@ TeamGraph::LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
 
 bool TeamGraph::knows(const LoopClosureData& loop) const { return loop_keys_.count(keyOf(loop)); }
 
-BackendSnapshot TeamGraph::optimize() {
-  BackendSnapshot snapshot;
-  const auto start = std::chrono::steady_clock::now();
-  // The graph: odometry edges (kept in graph_) plus the intra-robot loops whose keyframes exist.
-  PoseGraph graph = graph_;
-  std::map<std::string, std::vector<alignment::AlignmentCandidate>> candidates;
-  for (const auto& loop : loops_) {
-    if (loop.robot_from == robot_ && loop.robot_to == robot_) {
-      const auto from = index_.find(loop.keyframe_from);
-      const auto to = index_.find(loop.keyframe_to);
-      if (from == index_.end() || to == index_.end()) continue;
-      PoseGraphEdge edge;
-      edge.from = from->second;
-      edge.to = to->second;
-      edge.measurement = loop.relative;
-      edge.information = loop.covariance.inverse();
-      edge.loop = true;
-      graph.edges.push_back(edge);
-      ++snapshot.intra_loops;
-    }
-  }
-  if (graph.poses.size() >= 2) {
-    const OptimizationResult result = optimizer_.optimize(graph);
-    graph_.poses = graph.poses;
-    last_weights_ = result.weights;
-    last_graph_ = graph;
-    for (std::size_t k = 0; k < graph.edges.size(); ++k) {
-      const PoseGraphEdge& e = graph.edges[k];
-      if (!e.loop) continue;
-      snapshot.intra_loops_rejected += !result.inliers[k];
-      snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
-                                     graph.poses[static_cast<std::size_t>(e.to)].translation(),
-                                     static_cast<bool>(result.inliers[k]), false});
-    }
-  }
+int TeamGraph::ownIndex(KeyframeId id) const {
+  const auto it = index_.find(id);
+  return it == index_.end() ? -1 : it->second;
+}
 
-  // Inter-robot loops, oriented from this robot to the peer, against the optimised poses; each
-  // with the drift of both keyframes since their robots' starts (the peer's from its keyframes'
-  // poses, with this robot's odometry model), so that a true loop seen after long drift still
-  // agrees and the least drifted loops weigh most.
-  std::map<std::string, std::map<KeyframeId, Covariance6>> peer_covariances;
-  for (const auto& [peer, keyframes] : peers_) {
-    OdometryUncertainty chain(params_.odometry);
-    for (const auto& [id, pose] : keyframes) peer_covariances[peer][id] = chain.advance(pose);
+void TeamGraph::solve(BackendSnapshot& snapshot) {
+  snapshot.loop_lines.clear();
+  snapshot.intra_loops = snapshot.intra_loops_rejected = 0;
+  snapshot.inter_loops = snapshot.inter_loops_rejected = 0;
+  PoseGraph graph = graph_;  // own keyframes and odometry
+  const std::size_t own_count = graph.poses.size();
+  for (const auto& loop : loops_) {
+    if (loop.robot_from != robot_ || loop.robot_to != robot_) continue;
+    const int from = ownIndex(loop.keyframe_from);
+    const int to = ownIndex(loop.keyframe_to);
+    if (from < 0 || to < 0) continue;
+    PoseGraphEdge edge;
+    edge.from = from;
+    edge.to = to;
+    edge.measurement = loop.relative;
+    edge.information = loop.covariance.inverse();
+    edge.loop = true;
+    graph.edges.push_back(edge);
+    ++snapshot.intra_loops;
   }
+  // Each joined teammate's known keyframes, in id order: a keyframe placed before keeps its
+  // optimised pose, a new one continues from the previous node by its odometry step (or is
+  // placed with the transform when it is the first).
+  std::map<std::pair<std::string, KeyframeId>, int> peer_node;
+  std::vector<std::pair<std::string, KeyframeId>> node_keyframe;  // of nodes from own_count
+  for (const auto& [peer, joined] : joined_) {
+    const Pose3* previous = nullptr;
+    for (const auto& [id, pose] : peers_.at(peer)) {
+      const int node = static_cast<int>(graph.poses.size());
+      if (const auto known = joined.poses.find(id); known != joined.poses.end()) {
+        graph.poses.push_back(known->second);
+      } else if (previous) {
+        graph.poses.push_back(graph.poses.back() * previous->inverse() * pose);
+      } else {
+        graph.poses.push_back(joined.transform * pose);
+      }
+      if (previous) {
+        PoseGraphEdge edge;
+        edge.from = node - 1;
+        edge.to = node;
+        edge.measurement = previous->inverse() * pose;  // drift grows with the distance between
+        edge.information = stepCovariance(edge.measurement, params_.odometry).inverse();
+        graph.edges.push_back(edge);
+      }
+      previous = &pose;
+      peer_node[{peer, id}] = node;
+      node_keyframe.emplace_back(peer, id);
+    }
+  }
+  // Inter-robot loops with joined teammates: in the graph when gated in, else reported rejected.
+  std::vector<std::pair<int, int>> gated_out;
+  std::vector<std::pair<std::string, LoopKey>> edge_loop;  // of each inter-robot edge, in order
   for (const auto& loop : loops_) {
     const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
     const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
     if (!outgoing && !incoming) continue;
     const std::string& peer = outgoing ? loop.robot_to : loop.robot_from;
-    const KeyframeId mine = outgoing ? loop.keyframe_from : loop.keyframe_to;
+    const int own = ownIndex(outgoing ? loop.keyframe_from : loop.keyframe_to);
+    const auto other = peer_node.find({peer, outgoing ? loop.keyframe_to : loop.keyframe_from});
+    if (own < 0 || other == peer_node.end()) continue;
+    ++snapshot.inter_loops;
+    const LoopKey key = keyOf(loop);
+    if (!gate_[peer].count(key) && !kept_[peer].count(key)) {
+      gated_out.emplace_back(own, other->second);
+      continue;
+    }
+    PoseGraphEdge edge;
+    edge.from = own;
+    edge.to = other->second;
+    edge.measurement = outgoing ? loop.relative : loop.relative.inverse();
+    edge.information = loop.covariance.inverse();  // first order for the inverted direction
+    edge.loop = true;
+    graph.edges.push_back(edge);
+    edge_loop.emplace_back(peer, key);
+  }
+
+  kept_.clear();
+  if (graph.poses.size() < 2) return;
+  const OptimizationResult result = optimizer_.optimize(graph);
+  graph_.poses.assign(graph.poses.begin(), graph.poses.begin() + own_count);
+  for (std::size_t k = own_count; k < graph.poses.size(); ++k) {
+    const auto& [peer, id] = node_keyframe[k - own_count];
+    joined_.at(peer).poses[id] = graph.poses[k];
+  }
+  std::size_t inter = 0;
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+    const PoseGraphEdge& e = graph.edges[k];
+    if (!e.loop) continue;
+    const auto to = static_cast<std::size_t>(e.to);
+    const bool accepted = result.inliers[k];
+    if (to >= own_count) {
+      const auto& [peer, key] = edge_loop[inter++];
+      if (accepted) kept_[peer].insert(key);
+      snapshot.inter_loops_rejected += !accepted;
+    } else {
+      snapshot.intra_loops_rejected += !accepted;
+    }
+    snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
+                                   graph.poses[to].translation(), accepted, to >= own_count});
+  }
+  for (const auto& [own, other] : gated_out) {
+    ++snapshot.inter_loops_rejected;
+    snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(own)].translation(),
+                                   graph.poses[static_cast<std::size_t>(other)].translation(),
+                                   false, true});
+  }
+  last_weights_ = result.weights;
+  last_graph_ = std::move(graph);
+  last_own_count_ = own_count;
+}
+
+std::map<std::string, TeamGraph::Candidates> TeamGraph::candidates() const {
+  // Inter-robot loops, oriented from this robot to the peer, against the optimised own poses and
+  // the teammate's own; each with the drift of both keyframes since their robots' starts (the
+  // peer's from its keyframes' poses, with this robot's odometry model), so that a true loop
+  // seen after long drift still agrees and the least drifted loops weigh most.
+  std::map<std::string, std::map<KeyframeId, Covariance6>> peer_covariances;
+  for (const auto& [peer, keyframes] : peers_) peer_covariances[peer] = peerDrift(peer);
+  std::map<std::string, Candidates> candidates;
+  for (const auto& loop : loops_) {
+    const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
+    const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
+    if (!outgoing && !incoming) continue;
+    const std::string& peer = outgoing ? loop.robot_to : loop.robot_from;
+    const int own = ownIndex(outgoing ? loop.keyframe_from : loop.keyframe_to);
     const KeyframeId theirs = outgoing ? loop.keyframe_to : loop.keyframe_from;
-    const auto own = index_.find(mine);
     const auto peer_keyframes = peers_.find(peer);
-    if (own == index_.end() || peer_keyframes == peers_.end()) continue;
+    if (own < 0 || peer_keyframes == peers_.end()) continue;
     const auto other = peer_keyframes->second.find(theirs);
     if (other == peer_keyframes->second.end()) continue;
     alignment::AlignmentCandidate c;
-    c.pose_a = graph_.poses[static_cast<std::size_t>(own->second)];
+    const auto i = static_cast<std::size_t>(own);
+    c.pose_a = graph_.poses[i];
     c.pose_b = other->second;
     c.measurement = outgoing ? loop.relative : loop.relative.inverse();
     c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
-    const std::size_t i = static_cast<std::size_t>(own->second);
     c.covariance_a = inBodyFrame(odom_covariances_[i], odom_poses_[i].linear());
     c.covariance_b = inBodyFrame(peer_covariances.at(peer).at(theirs),
                                  c.pose_b.linear() * c.measurement.linear().transpose());
-    candidates[peer].push_back(c);
+    candidates[peer].list.push_back(c);
+    candidates[peer].keys.push_back(keyOf(loop));
   }
-  for (const auto& [peer, list] : candidates) {
-    alignment::AlignmentParams params;
-    params.min_inliers = params_.min_team_inliers;
-    params.min_inlier_margin = params_.team_inlier_margin;
+  return candidates;
+}
+
+std::map<KeyframeId, Covariance6> TeamGraph::peerDrift(const std::string& peer) const {
+  std::map<KeyframeId, Covariance6> drift;
+  OdometryUncertainty chain(params_.odometry);
+  for (const auto& [id, pose] : peers_.at(peer)) drift[id] = chain.advance(pose);
+  return drift;
+}
+
+Pose3 TeamGraph::refinedTransform(const std::string& peer) const {
+  // Where the graph puts the teammate's frame: a rigid fit (x y yaw; both frames are
+  // gravity-aligned) from its own poses to its optimised ones, each weighted by how little its
+  // odometry had drifted (the frame's origin is where the drift is zero); z by the weighted
+  // mean. Written here: Eigen's umeyama has no weights.
+  const Joined& joined = joined_.at(peer);
+  const auto& raw = peers_.at(peer);
+  const auto drift = peerDrift(peer);
+  double total = 0.0;
+  Eigen::Vector3d from_mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d to_mean = Eigen::Vector3d::Zero();
+  std::vector<std::tuple<double, Eigen::Vector3d, Eigen::Vector3d>> pairs;
+  for (const auto& [id, pose] : joined.poses) {
+    const double w = 1.0 / (drift.at(id).topLeftCorner<3, 3>().trace() + 1e-4);
+    pairs.emplace_back(w, raw.at(id).translation(), pose.translation());
+    total += w;
+    from_mean += w * raw.at(id).translation();
+    to_mean += w * pose.translation();
+  }
+  if (pairs.empty()) return joined.transform;
+  from_mean /= total;
+  to_mean /= total;
+  double sin_sum = 0.0;
+  double cos_sum = 0.0;
+  for (const auto& [w, p, q] : pairs) {
+    const Eigen::Vector2d a = (p - from_mean).head<2>();
+    const Eigen::Vector2d b = (q - to_mean).head<2>();
+    cos_sum += w * a.dot(b);
+    sin_sum += w * (a.x() * b.y() - a.y() * b.x());
+  }
+  double yaw = std::atan2(sin_sum, cos_sum);
+  if (std::hypot(sin_sum, cos_sum) < 1e-9 * total) {  // one place: its pose's heading decides
+    const auto& [id, pose] = *joined.poses.begin();
+    const Eigen::Matrix3d turn = pose.linear() * raw.at(id).linear().transpose();
+    yaw = std::atan2(turn(1, 0), turn(0, 0));
+  }
+  Pose3 transform = Pose3::Identity();
+  transform.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  transform.translation() = to_mean - transform.linear() * from_mean;
+  return transform;
+}
+
+BackendSnapshot TeamGraph::optimize() {
+  BackendSnapshot snapshot;
+  const auto start = std::chrono::steady_clock::now();
+  alignment::AlignmentParams em;
+  em.min_inliers = params_.min_team_inliers;
+  em.min_inlier_margin = params_.team_inlier_margin;
+  gate_.clear();
+  std::vector<LoopLine> em_lines;  // of teammates out of the graph (only without team_graph)
+  for (const auto& [peer, candidates] : candidates()) {
+    const auto& list = candidates.list;
     TeamEstimate estimate;
     estimate.peer = peer;
     estimate.candidates = static_cast<int>(list.size());
-    estimate.alignment = alignment::estimateFrameTransform(list, params);
-    for (std::size_t k = 0; estimate.alignment.found && k < list.size(); ++k) {
-      if (!estimate.alignment.inliers[k]) continue;
-      snapshot.loop_lines.push_back({list[k].pose_a.translation(),
-                                     (estimate.alignment.transform * list[k].pose_b).translation(),
-                                     true, true});
+    estimate.alignment = alignment::estimateFrameTransform(list, em);
+    const alignment::AlignmentResult& found = estimate.alignment;
+    auto joined = joined_.find(peer);
+    if (joined == joined_.end() && found.found && params_.team_graph) {
+      joined = joined_.emplace(peer, Joined{found.transform, {}}).first;
+      snapshot.notices.push_back(
+          {"team graph", peer + " joins the graph: " + std::to_string(found.inlier_count) + " of " +
+                             std::to_string(list.size()) + " closures agree"});
+    } else if (joined != joined_.end() && found.found) {
+      const Pose3 delta = refinedTransform(peer).inverse() * found.transform;
+      const double shift_m = delta.translation().norm();
+      const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180 / M_PI;
+      if (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg) {
+        // The hypothesis with clearly more agreeing closures wins, by the EM's own margin.
+        const int accepted = static_cast<int>(kept_[peer].size());
+        char text[320];
+        if (accepted + params_.team_inlier_margin >= found.inlier_count) {
+          std::snprintf(text, sizeof text,
+                        "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
+                        "the graph's: its switches accept %d closures, the EM %d",
+                        peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count);
+        } else {
+          std::snprintf(text, sizeof text,
+                        "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
+                        "accepts only %d closures, the EM %d: %s placed again with the EM "
+                        "transform",
+                        peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count,
+                        peer.c_str());
+          joined->second = {found.transform, {}};
+          kept_.erase(peer);
+        }
+        snapshot.notices.push_back({"team disagreement", text});
+      }
+    }
+    for (std::size_t k = 0; found.found && k < list.size(); ++k) {
+      if (!found.inliers[k]) continue;
+      if (joined != joined_.end()) {
+        gate_[peer].insert(candidates.keys[k]);
+      } else {
+        em_lines.push_back({list[k].pose_a.translation(),
+                            (found.transform * list[k].pose_b).translation(), true, true});
+      }
     }
     snapshot.team.push_back(estimate);
+  }
+  solve(snapshot);  // a teammate that joined or was placed again is optimised now
+  snapshot.loop_lines.insert(snapshot.loop_lines.end(), em_lines.begin(), em_lines.end());
+  for (auto& estimate : snapshot.team) {
+    if (!joined_.count(estimate.peer)) continue;
+    estimate.in_graph = true;
+    estimate.alignment.found = true;
+    estimate.alignment.transform = refinedTransform(estimate.peer);
+  }
+  for (const auto& [peer, joined] : joined_) {
+    PeerKeyframes keyframes;
+    keyframes.robot = peer;
+    for (const auto& [id, pose] : joined.poses) {
+      keyframes.ids.push_back(id);
+      keyframes.poses.push_back(pose);
+    }
+    snapshot.peer_keyframes.push_back(std::move(keyframes));
   }
 
   snapshot.ids = ids_;
@@ -195,7 +387,7 @@ std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
   }
   // The last optimised graph, loops weighted as the robust kernel left them: a loop the
   // switches accepted shrinks the uncertainty of the keyframes it closes.
-  if (last_graph_.poses.size() != graph_.poses.size()) {
+  if (last_own_count_ != graph_.poses.size()) {
     return optimizer_.marginalCovariances(graph_, indices);
   }
   return optimizer_.marginalCovariances(last_graph_, indices, last_weights_);

@@ -29,6 +29,14 @@ struct BackendParams {
   /// than any other transform.
   int min_team_inliers = 10;
   int team_inlier_margin = 3;
+  /// Teammates whose transform is found join this robot's graph: their keyframes optimised with
+  /// its own, inter-robot loop closures as switchable constraints (core/team/team_graph.h).
+  /// false: teammates are placed with the EM transform alone (kept for comparison).
+  bool team_graph = true;
+  /// A later EM transform that differs from the graph's by more than this is a disagreement
+  /// (logged and resolved, see TeamGraph::optimize).
+  double team_disagreement_m = 1.0;
+  double team_disagreement_deg = 5.0;
   /// The graph is re-optimised at this period (and when a loop closure arrives).
   double optimize_period_s = 1.0;
   /// Upper bound on one optimisation's wall time.

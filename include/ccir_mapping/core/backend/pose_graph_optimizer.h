@@ -34,6 +34,7 @@ struct OptimizerParams {
   bool uncertainty_aware_start = true;
   /// Finish with a plain solve over the loops kept as inliers (rejected ones left out).
   bool refine_inliers = true;
+  /// Wall-time bound of one optimize() (all its solves together; Ceres stops at the bound).
   double max_solve_time_s = 600.0;
   int threads = 1;
 
@@ -91,8 +92,10 @@ class PoseGraphOptimizer {
   /// Fills result.weights and result.inliers for the loops.
   void classify(const PoseGraph& graph, const std::vector<double>& switches,
                 OptimizationResult& result) const;
-  /// One Ceres solve from the graph's poses and `switches` (updated in place).
-  void solve(PoseGraph& graph, std::vector<double>& switches, OptimizationResult& result) const;
+  /// One Ceres solve from the graph's poses and `switches` (updated in place), stopped after
+  /// `time_limit_s`.
+  void solve(PoseGraph& graph, std::vector<double>& switches, OptimizationResult& result,
+             double time_limit_s) const;
 
   OptimizerParams params_;
 };

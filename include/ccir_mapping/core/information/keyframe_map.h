@@ -1,12 +1,14 @@
 // What a robot's occupancy map is made of, and where each part goes: its own keyframes at their
-// optimised poses, teammates' scans placed with the team transform once it is known. The map
-// follows the optimised poses by rebuilding: when an inserted keyframe's optimised pose (or a
-// team transform) has moved more than the rebuild thresholds, rebuildDue() turns true and the
-// caller builds a fresh OccupancyMap from placeAll() (OctoMap cannot move what it integrated).
+// optimised poses; teammates' scans at the poses the team graph gives them, or (not in the graph,
+// or not yet) with the team transform once it is known. The map follows the optimised poses by
+// rebuilding: when an inserted scan's pose has moved more than the rebuild thresholds,
+// rebuildDue() turns true and the caller builds a fresh OccupancyMap from placeAll() (OctoMap
+// cannot move what it integrated).
 #pragma once
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,9 +41,14 @@ class KeyframeMap {
   std::vector<PlacedScan> addPeer(const std::string& robot, KeyframeId id,
                                   std::shared_ptr<const Cloud> cloud, const Pose3& peer_pose);
   bool holdsPeer(const std::string& robot, KeyframeId id) const;
-  /// The teammate's frame in the map frame: returns its waiting scans, now placed. A known
-  /// transform that moves beyond the thresholds makes a rebuild due.
+  /// The teammate's frame in the map frame: returns its waiting scans, now placed. A placed scan
+  /// that moves beyond the thresholds makes a rebuild due.
   std::vector<PlacedScan> setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
+  /// The map poses the team graph gives the teammate's keyframes (kept for scans that arrive
+  /// later): they win over the team transform. Returns waiting scans now placed; a placed scan
+  /// that moves beyond the thresholds makes a rebuild due.
+  std::vector<PlacedScan> setPeerPoses(const std::string& robot,
+                                       const std::vector<std::pair<KeyframeId, Pose3>>& poses);
   /// Optimised sensor poses of own keyframes, by stamp (the Backend's trajectory).
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
@@ -64,15 +71,22 @@ class KeyframeMap {
   struct Peer {
     std::shared_ptr<const Cloud> cloud;
     Pose3 peer_pose;
+    bool placed = false;
+    Pose3 inserted_pose = Pose3::Identity();
   };
   struct Teammate {
     std::map<KeyframeId, Peer> scans;
     bool known = false;
     Pose3 map_from_peer = Pose3::Identity();
-    Pose3 inserted_transform = Pose3::Identity();
+    std::map<KeyframeId, Pose3> graph_poses;
   };
 
   bool moved(const Pose3& a, const Pose3& b) const;
+  /// Where a teammate's scan goes now, if anywhere.
+  static std::optional<Pose3> poseOf(const Teammate& t, KeyframeId id, const Peer& scan);
+  /// Places the teammate's waiting scans that can be (returned) and marks a rebuild due when a
+  /// placed one moved.
+  std::vector<PlacedScan> update(Teammate& t);
 
   MapperParams params_;
   std::map<Stamp, Own> own_;

@@ -59,6 +59,10 @@ class MapStage {
                                      std::shared_ptr<const Cloud> cloud, const Pose3& peer_pose);
   /// A teammate's map frame in this robot's (a transform to this robot itself is ignored).
   void setTeamTransform(const std::string& robot, const Pose3& map_from_peer);
+  /// Where the team graph puts a teammate's keyframes (KeyframeMap::setPeerPoses; poses for
+  /// this robot itself are ignored).
+  void setPeerPoses(const std::string& robot,
+                    const std::vector<std::pair<KeyframeId, Pose3>>& poses);
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
   /// Starts a rebuild when one is due and none is under way; true when it started.

@@ -23,8 +23,9 @@ class Mission {
   explicit Mission(const MissionParams& params);
 
   /// Records robot `index` into `sink`. Depends only on the parameters and the index, so robots
-  /// can be recorded in parallel.
-  void record(int index, RecordingSink& sink) const;
+  /// can be recorded in parallel. Without `scans` only the odometry (the same samples) is
+  /// recorded: what a back-end benchmark needs, without the cost of ray casting.
+  void record(int index, RecordingSink& sink, bool scans = true) const;
 
   const MissionParams& params() const { return params_; }
   const World& world() const { return world_; }

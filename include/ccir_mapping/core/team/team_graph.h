@@ -1,5 +1,18 @@
-// One robot's back end: its keyframes and intra-robot loop closures as a robust pose graph, and
-// per teammate the transform between their frames from inter-robot loop closures (EM).
+// One robot's back end: its keyframes and loop closures as one robust pose graph. Per teammate,
+// the EM over inter-robot loop closures decides whether the transform between their frames is
+// known; once it is, the teammate joins the graph (team_graph): its known keyframes become nodes,
+// chained by odometry edges from its poses, and the inter-robot closures with it become switchable
+// constraints like intra-robot ones. Two filters in series: a closure enters the graph when the
+// EM counts it an inlier of the transform (or the graph's switches kept it before), and the
+// switches then judge it against everything else in the graph.
+//
+//   own:       o---o---o---o---o---o---o---o        o own keyframe, --- odometry
+//                  :               :                 : inter-robot loop closure (switchable)
+//   teammate:      x---x---x---x---x---x             x teammate keyframe, placed by the graph
+//
+// The teammate's transform is the graph's gauge of its part: the EM's initialises its nodes, and
+// after each solve the transform is re-fitted (x y z yaw) between the teammate's own poses and
+// their optimised ones, so every accepted closure refines it.
 #pragma once
 
 #include <map>
@@ -12,22 +25,33 @@
 #include "ccir_mapping/core/backend/backend_params.h"
 #include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
+#include "ccir_mapping/core/common/notice.h"
 
 namespace ccir_mapping::core::team {
 
 struct TeamEstimate {
   std::string peer;
-  /// The peer's frame in this robot's map frame (when found).
+  /// The EM's decision and inliers; once the teammate is in the graph, alignment.transform is
+  /// the graph's (refined) transform.
   alignment::AlignmentResult alignment;
   int candidates = 0;
+  /// The teammate's keyframes are optimised in this robot's graph.
+  bool in_graph = false;
+};
+
+/// A teammate's keyframes in the graph: ids and optimised poses in this robot's map frame.
+struct PeerKeyframes {
+  std::string robot;
+  std::vector<KeyframeId> ids;
+  std::vector<Pose3> poses;
 };
 
 /// A loop closure to draw: its two keyframes' positions in the map frame.
 struct LoopLine {
   Eigen::Vector3d from = Eigen::Vector3d::Zero();
   Eigen::Vector3d to = Eigen::Vector3d::Zero();
-  /// Intra-robot: kept by the robust optimiser; inter-robot lines are the team transform's
-  /// inliers (the teammate's keyframe placed with it).
+  /// Kept by the robust optimiser (an inter-robot one of a teammate not in the graph: an
+  /// inlier of the EM, the teammate's keyframe placed with its transform).
   bool accepted = false;
   bool inter_robot = false;
 };
@@ -40,9 +64,17 @@ struct BackendSnapshot {
   /// The newest keyframe's odometry pose.
   Pose3 latest_odom_pose = Pose3::Identity();
   std::vector<TeamEstimate> team;
+  /// Teammates in the graph, in name order.
+  std::vector<PeerKeyframes> peer_keyframes;
   std::vector<LoopLine> loop_lines;
   int intra_loops = 0;
   int intra_loops_rejected = 0;
+  /// Inter-robot closures in the graph, and those its switches turned off.
+  int inter_loops = 0;
+  int inter_loops_rejected = 0;
+  /// What this optimisation decided that a user should hear of (a teammate joined, an EM
+  /// result disagreeing with the graph and how it was resolved).
+  std::vector<Notice> notices;
   double solve_s = 0.0;
 
   /// The odometry frame in the map frame: the correction the newest optimisation makes to
@@ -72,10 +104,17 @@ class TeamGraph {
   /// of a pair may find and share it, and it must count once.
   bool knows(const backend::LoopClosureData& loop) const;
 
-  /// Optimises the graph and re-estimates every team transform.
+  /// Optimises the graph and re-estimates every team transform. A teammate whose EM transform
+  /// is found joins the graph (and is optimised at once). Once joined, a later EM transform
+  /// farther than team_disagreement_m / _deg from the graph's is a disagreement, resolved by the
+  /// EM's own rule: the graph's transform is kept while its switches accept at least the EM's
+  /// inlier count less team_inlier_margin closures with that teammate; otherwise the teammate's
+  /// part is placed again from the EM transform and re-optimised. Either way a notice says
+  /// which.
   BackendSnapshot optimize();
 
-  /// Marginal covariances of the given keyframes at the last optimisation (pose uncertainty).
+  /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
+  /// teammates' parts and every accepted closure included).
   std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
   /// CCIR's u_k of the given keyframes: the geometric mean of the eigenvalues of each one's
   /// marginal position covariance, m^2 (monotone in their product, the thesis's u, and still a
@@ -94,6 +133,12 @@ class TeamGraph {
   std::vector<backend::Covariance6> odom_covariances_;  // of odom_poses_, world frame
   std::map<KeyframeId, int> index_;
   std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
+  /// Teammates in the graph: their transform and the optimised poses of their keyframes.
+  struct Joined {
+    Pose3 transform = Pose3::Identity();
+    std::map<KeyframeId, Pose3> poses;
+  };
+  std::map<std::string, Joined> joined_;
   std::vector<backend::LoopClosureData> loops_;  // all of them; resolved at each optimisation
   /// The two keyframes of each of loops_, in a fixed order.
   using KeyframeOf = std::pair<std::string, KeyframeId>;
@@ -101,7 +146,31 @@ class TeamGraph {
   static LoopKey keyOf(const backend::LoopClosureData& loop);
   std::set<LoopKey> loop_keys_;
   std::vector<double> last_weights_;
-  backend::PoseGraph last_graph_;  // graph_ with the loops of the last optimisation
+  backend::PoseGraph last_graph_;   // the whole graph of the last optimisation
+  std::size_t last_own_count_ = 0;  // own keyframes (its first nodes) in last_graph_
+
+  /// Index of own keyframe `id` in the graph, or -1.
+  int ownIndex(KeyframeId id) const;
+  /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
+  /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_), keeps its poses
+  /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
+  void solve(BackendSnapshot& snapshot);
+  /// The EM's candidates with one teammate, and the closure each one is.
+  struct Candidates {
+    std::vector<alignment::AlignmentCandidate> list;
+    std::vector<LoopKey> keys;
+  };
+  /// Per teammate: own keyframes at their optimised poses, the teammate's at its own, with both
+  /// one's drift.
+  std::map<std::string, Candidates> candidates() const;
+  /// Covariance of each of the teammate's poses from its odometry (this robot's noise model).
+  std::map<KeyframeId, backend::Covariance6> peerDrift(const std::string& peer) const;
+  /// The teammate's transform fitted (x y z yaw) from its own poses to its optimised ones.
+  Pose3 refinedTransform(const std::string& peer) const;
+  /// Inter-robot closures the EM counts as inliers (this optimisation), and those the graph's
+  /// switches kept (the last solve), per joined teammate.
+  std::map<std::string, std::set<LoopKey>> gate_;
+  std::map<std::string, std::set<LoopKey>> kept_;
 };
 
 }  // namespace ccir_mapping::core::team
