@@ -9,6 +9,7 @@
 // Prints JSON: per robot the ATE of every keyframe in its graph (own and teammates', after one
 // rigid alignment to the truth), the team-transform errors, the accepted transforms, and the
 // optimisation times (p50 / p95 / max). Needs no lidar: only the mission's odometry is recorded.
+// --g2o-dir writes each robot's final team graph, which pgo_benchmark reads (--inter-robot).
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -19,6 +20,7 @@
 #include <Eigen/Geometry>
 #include <boost/program_options.hpp>
 
+#include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/core/backend/trajectory_error.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/simulation/mission.h"
@@ -49,6 +51,8 @@ struct Options {
   double noise_m = 0.05;
   double noise_deg = 0.5;
   double optimize_every_s = 10.0;
+  /// Where each robot's final team graph is written (team_graph_<robot>.g2o), or "".
+  std::string g2o_dir;
   BackendParams backend;
 };
 
@@ -73,7 +77,10 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "mission seconds between optimisations")(
       "max-solve-time-s",
       po::value<double>(&o->backend.max_solve_time_s)->default_value(o->backend.max_solve_time_s),
-      "the Backend's max_solve_time_s");
+      "the Backend's max_solve_time_s")(
+      "g2o-dir", po::value<std::string>(&o->g2o_dir),
+      "write each robot's final team graph there as team_graph_<robot>.g2o (robot-keyed ids, "
+      "switch values)");
   if (const auto exit_code = tools::parseCommandLine("bench_team_graph", options, argc, argv)) {
     return exit_code;
   }
@@ -335,6 +342,14 @@ Results run(const Options& o) {
       for (const auto& b : last_baseline.team) {
         if (e.peer == b.peer && e.alignment.found && b.alignment.found) both.push_back(e.peer);
       }
+    }
+    if (!o.g2o_dir.empty()) {
+      std::vector<double> switches;
+      std::vector<std::string> lettered;
+      const auto exported = graph.exportGraph(&switches, &lettered);
+      const std::string path = o.g2o_dir + "/team_graph_" + name + ".g2o";
+      ccir_mapping::core::backend::writeG2o(exported, path, switches);
+      std::fprintf(stderr, "bench_team_graph: wrote %s\n", path.c_str());
     }
     r.graph.push_back(evaluate(last_graph, robot, kf, mission, both));
     r.baseline.push_back(evaluate(last_baseline, robot, kf, mission, both));

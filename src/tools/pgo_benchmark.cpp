@@ -50,7 +50,8 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
   o->outliers.count = 0;
   po::options_description options(
       "Usage: pgo_benchmark --g2o FILE [--gt FILE] [--outliers N] [--outlier-mode random|local|"
-      "grouped]\n                     [--seed S] [--robust none|cauchy|huber|dcs|switchable] "
+      "grouped]\n                     [--inter-robot] [--seed S] [--robust "
+      "none|cauchy|huber|dcs|switchable] "
       "[--json]\nPrints JSON.\n\nOptions",
       100);
   options.add_options()("help,h", "print this help and exit")(
@@ -63,8 +64,9 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "outlier-mode", po::value<std::string>(&outlier_mode)->default_value(outlier_mode),
       "random | local | grouped")(
       "group-size", po::value<int>(&o->outliers.group_size)->default_value(o->outliers.group_size),
-      "edges per group (grouped)")("seed", po::value<int>(&o->seed)->default_value(o->seed),
-                                   "outlier seed")(
+      "edges per group (grouped)")(
+      "inter-robot", "false closures only between robots (a multi-robot graph: robot-keyed ids)")(
+      "seed", po::value<int>(&o->seed)->default_value(o->seed), "outlier seed")(
       "robust", po::value<std::string>(&robust)->default_value(robust),
       "none | cauchy | huber | dcs | switchable")(
       "switch", po::value<std::string>(&switch_function)->default_value(switch_function),
@@ -101,6 +103,7 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
                              ", --switch linear | sigmoid, --outliers >= 0 (see --help)");
   }
   o->outliers.mode = *mode;
+  o->outliers.inter_robot = arguments.count("inter-robot") > 0;
   o->outliers.seed = static_cast<std::uint64_t>(o->seed);
   o->params.kernel = *kernel;
   o->params.uncertainty_aware_start = arguments.count("no-chain-start") == 0;
@@ -120,6 +123,7 @@ struct Results {
   /// as JSON ("null" without --reference).
   std::string mrpt_json = "null";
   std::size_t injected = 0, rejected = 0, rejected_outliers = 0, true_loops = 0, rejected_true = 0;
+  std::size_t robots = 1, inter_robot_true_loops = 0, inter_robot_rejected_true = 0;
 };
 
 /// Throws std::runtime_error (a file that cannot be read, ground truth of another size).
@@ -159,13 +163,20 @@ Results run(const Options& o) {
   for (std::size_t k = 0; k < r.graph.edges.size(); ++k) {
     const auto& e = r.graph.edges[k];
     if (!e.loop) continue;
+    const bool inter_robot =
+        !r.graph.keys.empty() && r.graph.keys[e.from].robot != r.graph.keys[e.to].robot;
     r.injected += e.outlier;
     r.true_loops += !e.outlier;
+    r.inter_robot_true_loops += !e.outlier && inter_robot;
     if (!r.result.inliers[k]) {
       ++r.rejected;
       r.rejected_outliers += e.outlier;
       r.rejected_true += !e.outlier;
+      r.inter_robot_rejected_true += !e.outlier && inter_robot;
     }
+  }
+  for (std::size_t i = 1; i < r.graph.keys.size(); ++i) {
+    r.robots += r.graph.keys[i].robot != r.graph.keys[i - 1].robot;
   }
   return r;
 }
@@ -176,6 +187,7 @@ void report(const Options& o, const Results& r) {
   std::printf(
       "{\n  \"benchmark\": \"pgo\",\n  \"graph\": %s,\n  \"dimension\": %d,\n  \"poses\": %zu,\n"
       "  \"edges\": %zu,\n  \"true_loops\": %zu,\n  \"outliers\": %zu,\n  \"outlier_mode\": %s,\n"
+      "  \"robots\": %zu,\n  \"inter_robot_true_loops\": %zu,\n  \"inter_robot_outliers\": %s,\n"
       "  \"seed\": %d,\n  \"robust\": %s,\n  \"reference\": %s,\n"
       "  \"ate_rmse\": %.6g,\n  \"outlier_free_ate_rmse\": %.6g,\n  \"ate_ratio\": %.4g,\n"
       "  \"initial_cost\": %.10g,\n  \"final_cost\": %.10g,\n  \"plain_cost\": %.10g,\n"
@@ -183,16 +195,20 @@ void report(const Options& o, const Results& r) {
       "  \"outlier_free_solve_s\": %.3f,\n  \"outlier_free_plain_cost\": %.10g,\n"
       "  \"mrpt_reference\": %s,\n"
       "  \"loop_classification\": {\"rejected\": %zu, \"rejected_outliers\": %zu, "
-      "\"rejected_true_loops\": %zu, \"precision\": %.4f, \"recall\": %.4f}\n}\n",
+      "\"rejected_true_loops\": %zu, \"rejected_inter_robot_true_loops\": %zu, \"precision\": "
+      "%.4f, "
+      "\"recall\": %.4f}\n}\n",
       jsonString(o.g2o).c_str(), r.clean.dimension, r.clean.poses.size(), r.graph.edges.size(),
-      r.true_loops, r.injected, jsonString(backend::toString(o.outliers.mode)).c_str(), o.seed,
+      r.true_loops, r.injected, jsonString(backend::toString(o.outliers.mode)).c_str(), r.robots,
+      r.inter_robot_true_loops, o.outliers.inter_robot ? "true" : "false", o.seed,
       jsonString(backend::toString(o.params.kernel)).c_str(),
       jsonString(o.gt.empty() ? "outlier-free optimum" : "ground truth").c_str(), r.ate,
       r.outlier_free_ate, r.outlier_free_ate > 0 ? r.ate / r.outlier_free_ate : 0.0,
       r.result.initial_cost, r.result.final_cost, backend::PoseGraphOptimizer::plainCost(r.graph),
       r.result.iterations, r.result.solve_s, r.result.usable ? "true" : "false",
       r.optimum_result.solve_s, backend::PoseGraphOptimizer::plainCost(r.optimum),
-      r.mrpt_json.c_str(), r.rejected, r.rejected_outliers, r.rejected_true, precision, recall);
+      r.mrpt_json.c_str(), r.rejected, r.rejected_outliers, r.rejected_true,
+      r.inter_robot_rejected_true, precision, recall);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <random>
 
 #include <ceres/autodiff_cost_function.h>
@@ -433,6 +434,69 @@ TEST(G2o, QuaternionInformationIsScaledToRotationVectorUnitsAndChainedWithoutVer
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find(":2:"), std::string::npos) << e.what();
   }
+  std::filesystem::remove(path);
+}
+
+TEST(G2o, MultiRobotGraphsAreReadByTheirRobotKeyedIdsAndTakeInterRobotOutliers) {
+  const auto path =
+      std::filesystem::temp_directory_path() / ("ccir_team_" + std::to_string(::getpid()));
+  // Two robots' chains of 12 poses (b's 5 m beside a's), three closures between them, written
+  // with GTSAM-symbol ids as Kimera-RPGO's robot graphs are.
+  const auto id = [](char robot, int index) { return VertexKey{robot, std::uint64_t(index)}.id(); };
+  {
+    std::ofstream out(path);
+    out << std::setprecision(17);
+    for (const char robot : {'a', 'b'}) {
+      for (int i = 0; i < 12; ++i) {
+        out << "VERTEX_SE2 " << id(robot, i) << ' ' << i << ' ' << (robot == 'b' ? 5 : 0) << " 0\n";
+      }
+      for (int i = 0; i + 1 < 12; ++i) {
+        out << "EDGE_SE2 " << id(robot, i) << ' ' << id(robot, i + 1) << " 1 0 0 100 0 0 100 0 "
+            << "1000\n";
+      }
+    }
+    for (const int i : {2, 6, 10}) {
+      out << "EDGE_SE2 " << id('a', i) << ' ' << id('b', i) << " 0 5 0 100 0 0 100 0 1000\n";
+    }
+  }
+  PoseGraph graph = readG2o(path.string());
+  ASSERT_EQ(graph.keys.size(), 24U);
+  EXPECT_EQ(graph.keys[0].robot, 'a');
+  EXPECT_EQ(graph.keys[12].robot, 'b');
+  EXPECT_EQ(graph.keys[12].index, 0U);
+  EXPECT_NEAR(graph.poses[13].translation().y(), 5.0, 1e-12);
+  EXPECT_EQ(graph.loopCount(), 3U) << "b's 0 -> 1 is odometry, not a loop";
+  EXPECT_NEAR(PoseGraphOptimizer::plainCost(graph), 0.0, 1e-12);
+
+  OutlierParams outliers;
+  outliers.count = 12;
+  outliers.mode = OutlierMode::kGrouped;
+  outliers.group_size = 4;
+  outliers.inter_robot = true;
+  injectOutliers(graph, outliers);
+  ASSERT_EQ(graph.loopCount(), 15U);
+  for (const auto& e : graph.edges) {
+    if (!e.outlier) continue;
+    EXPECT_NE(graph.keys[e.from].robot, graph.keys[e.to].robot) << "between the robots only";
+  }
+  writeG2o(graph, path.string());
+  EXPECT_EQ(readG2o(path.string()).keys.size(), 24U) << "written back with the same ids";
+
+  // A keyed graph's poses need vertices; plain and keyed ids do not mix.
+  {
+    std::ofstream out(path);
+    out << "EDGE_SE2 " << id('a', 0) << ' ' << id('a', 1) << " 1 0 0 1 0 0 1 0 1\n";
+  }
+  EXPECT_THROW(readG2o(path.string()), std::runtime_error);
+  {
+    std::ofstream out(path);
+    out << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 " << id('a', 1) << " 1 0 0\n";
+  }
+  EXPECT_THROW(readG2o(path.string()), std::runtime_error);
+  // Inter-robot outliers need two robots.
+  Synthetic single = laps(2, 1, 6, 0.01, 3);
+  outliers.mode = OutlierMode::kRandom;
+  EXPECT_THROW(injectOutliers(single.graph, outliers), std::invalid_argument);
   std::filesystem::remove(path);
 }
 

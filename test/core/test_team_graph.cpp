@@ -5,11 +5,14 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
+#include <fstream>
 #include <mutex>
 
 #include <Eigen/Geometry>
 
 #include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/core/team/team_graph.h"
 #include "ccir_mapping/core/team/team_graph_worker.h"
 
@@ -265,6 +268,45 @@ TEST_F(Corridor, AFalseClosureAmongTrueOnesIsSwitchedOff) {
   }
   EXPECT_EQ(rejected, 1);
   EXPECT_LT(errorOf(snapshot, 15, 30), 1.0) << "b's keyframe 22 not pulled 8 m along";
+}
+
+TEST_F(Corridor, TheWholeTeamGraphIsExportedToG2oWithRobotKeyedIdsAndSwitchValues) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  ASSERT_TRUE(graph.addLoopClosure(loop(30, 22)));  // false: the gate keeps it out
+  graph.optimize();
+  std::vector<double> switches;
+  std::vector<std::string> robots;
+  const backend::PoseGraph exported = graph.exportGraph(&switches, &robots);
+  EXPECT_EQ(robots, (std::vector<std::string>{"robot_a", "robot_b"}));
+  ASSERT_EQ(exported.poses.size(), 2U * kLength);
+  EXPECT_EQ(exported.keys[0].id(), (std::uint64_t('a') << 56));
+  EXPECT_EQ(exported.keys[kLength].robot, 'b');
+  EXPECT_EQ(exported.keys[kLength].index, 100U);
+  EXPECT_LT((exported.poses[kLength + 20].translation() - true_b_[20].translation()).norm(), 0.2);
+  ASSERT_EQ(switches.size(), exported.edges.size());
+  ASSERT_EQ(exported.loopCount(), 15U) << "the true closures; the false one never entered";
+  for (std::size_t k = 0; k < exported.edges.size(); ++k) {
+    if (exported.edges[k].loop) EXPECT_GT(switches[k], 0.9) << k;
+  }
+
+  const std::string path = ::testing::TempDir() + "team_graph_export.g2o";
+  backend::writeG2o(exported, path, switches);
+  const backend::PoseGraph back = backend::readG2o(path);
+  ASSERT_EQ(back.keys.size(), exported.keys.size());
+  for (std::size_t i = 0; i < back.keys.size(); ++i) {
+    EXPECT_EQ(back.keys[i].id(), exported.keys[i].id());
+    EXPECT_TRUE(back.poses[i].isApprox(exported.poses[i], 1e-9));
+  }
+  EXPECT_EQ(back.loopCount(), 15U) << "the switchable edges";
+  EXPECT_EQ(back.edges.size() - back.loopCount(), 2U * (kLength - 1)) << "both odometry chains";
+  std::ifstream file(path);
+  int switch_lines = 0;
+  for (std::string line; std::getline(file, line);)
+    switch_lines += line.rfind("VERTEX_SWITCH", 0) == 0;
+  EXPECT_EQ(switch_lines, 15);
+  std::remove(path.c_str());
 }
 
 TEST_F(Corridor, OneFalseClosureAloneNeverMakesATeamTransform) {

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
@@ -187,14 +188,23 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_TRUE(waitFor([&] { return forwarded == 30; }, 10.0)) << forwarded << " forwarded";
   EXPECT_TRUE(forwarded_only_inter_robot);
 
+  // tf and team_transforms are separate connections: await the tf sent with (or after) the
+  // announcement that holds all closures, not an earlier estimate still the latest on tf.
   std::string why;
+  geometry_msgs::TransformStamped latest;
   ASSERT_TRUE(waitFor(
-      [&] { return buffer.canTransform("robot_a/map", "robot_b/map", ros::Time(0), &why); }, 10.0))
-      << why;
-  const Eigen::Isometry3d estimate =
-      tf2::transformToEigen(buffer.lookupTransform("robot_a/map", "robot_b/map", ros::Time(0)));
+      [&] {
+        if (!buffer.canTransform("robot_a/map", "robot_b/map", ros::Time(0), &why)) return false;
+        latest = buffer.lookupTransform("robot_a/map", "robot_b/map", ros::Time(0));
+        return latest.header.stamp >= team->header.stamp;
+      },
+      10.0))
+      << why << " latest tf at " << latest.header.stamp << ", announced at " << team->header.stamp;
+  const Eigen::Isometry3d estimate = tf2::transformToEigen(latest);
+  // The team graph's transform, fitted to ~13 true closures of 0.1 m / 1 deg noise: a few cm
+  // off; a false one would be metres off.
   const Eigen::Isometry3d error = s.truth.inverse() * estimate;
-  EXPECT_LT(error.translation().norm(), 0.1);
+  EXPECT_LT(error.translation().norm(), 0.15);
   EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 1.0);
 
   // One more teammate keyframe: a re-optimisation without a new own keyframe, whose map -> odom

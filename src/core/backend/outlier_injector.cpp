@@ -33,6 +33,18 @@ void injectOutliers(PoseGraph& graph, const OutlierParams& params) {
       params.local_window < 2) {
     throw std::invalid_argument("cannot inject outliers: graph too small or bad parameters");
   }
+  // A pose and the span - 1 after it belong to one robot (keys are sorted: robot, then index).
+  const auto same_robot_run = [&](int i) {
+    return graph.keys.empty() || graph.keys[i + span - 1].robot == graph.keys[i].robot;
+  };
+  if (params.inter_robot) {
+    if (params.mode == OutlierMode::kLocal || graph.keys.size() != graph.poses.size() ||
+        graph.keys.front().robot == graph.keys.back().robot) {
+      throw std::invalid_argument(
+          "cannot inject inter-robot outliers: need a graph of two robots or more, random or "
+          "grouped");
+    }
+  }
   Information information = graph.edges.front().information;
   for (const auto& e : graph.edges) {
     if (e.loop && !e.outlier) {
@@ -71,7 +83,8 @@ void injectOutliers(PoseGraph& graph, const OutlierParams& params) {
     } else {
       j = any(rng);
     }
-    if (j == i || j == i + 1 || i == j + 1) continue;
+    if (j == i || j == i + 1 || i == j + 1 || !same_robot_run(i) || !same_robot_run(j)) continue;
+    if (params.inter_robot && graph.keys[i].robot == graph.keys[j].robot) continue;
     const Pose3 m = measurement();
     for (int k = 0; k < span && added < params.count; ++k, ++added) {
       PoseGraphEdge edge;

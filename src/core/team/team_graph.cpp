@@ -1,7 +1,9 @@
 #include "ccir_mapping/core/team/team_graph.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <numeric>
 #include <stdexcept>
 #include <tuple>
 
@@ -207,6 +209,40 @@ void TeamGraph::solve(BackendSnapshot& snapshot) {
   last_weights_ = result.weights;
   last_graph_ = std::move(graph);
   last_own_count_ = own_count;
+  last_nodes_.clear();
+  for (const KeyframeId id : ids_) last_nodes_.emplace_back(robot_, id);
+  last_nodes_.insert(last_nodes_.end(), node_keyframe.begin(), node_keyframe.end());
+}
+
+PoseGraph TeamGraph::exportGraph(std::vector<double>* switch_values,
+                                 std::vector<std::string>* robots) const {
+  std::set<std::string> names;
+  for (const auto& node : last_nodes_) names.insert(node.first);
+  if (names.size() > 26) throw std::length_error("exportGraph: more robots than letters a-z");
+  robots->assign(names.begin(), names.end());
+  std::map<std::string, char> letter;
+  for (std::size_t r = 0; r < robots->size(); ++r) letter[(*robots)[r]] = char('a' + r);
+  // Nodes sorted by their keys, as PoseGraph::keys must be.
+  std::vector<backend::VertexKey> keys;
+  for (const auto& [robot, id] : last_nodes_) keys.push_back({letter[robot], id});
+  std::vector<int> order(keys.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return keys[a] < keys[b]; });
+  std::vector<int> position(keys.size());
+  PoseGraph out;
+  out.dimension = last_graph_.dimension;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    position[static_cast<std::size_t>(order[i])] = static_cast<int>(i);
+    out.poses.push_back(last_graph_.poses[static_cast<std::size_t>(order[i])]);
+    out.keys.push_back(keys[static_cast<std::size_t>(order[i])]);
+  }
+  out.edges = last_graph_.edges;
+  for (auto& e : out.edges) {
+    e.from = position[static_cast<std::size_t>(e.from)];
+    e.to = position[static_cast<std::size_t>(e.to)];
+  }
+  *switch_values = last_weights_;
+  return out;
 }
 
 std::map<std::string, TeamGraph::Candidates> TeamGraph::candidates() const {

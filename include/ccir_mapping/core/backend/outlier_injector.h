@@ -26,12 +26,16 @@ struct OutlierParams {
   /// Measurements: translation ~ N(0, sigma^2) per axis, angles ~ N(0, sigma^2).
   double translation_sigma_m = 0.3;
   double angle_sigma_deg = 10.0;
+  /// Only between two robots of a multi-robot graph (graph.keys), a group within each one's
+  /// consecutive poses; local mode is then meaningless.
+  bool inter_robot = false;
   std::uint64_t seed = 1;
 };
 
 /// Appends `params.count` false loop closures (loop = outlier = true) whose information copies
 /// the first true loop's (the first edge's when there is none). Deterministic for a seed.
-/// Throws std::invalid_argument for a graph too small to hold them.
+/// Throws std::invalid_argument for a graph too small to hold them (or, inter_robot, of one
+/// robot).
 void injectOutliers(PoseGraph& graph, const OutlierParams& params);
 
 }  // namespace ccir_mapping::core::backend

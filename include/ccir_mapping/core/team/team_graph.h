@@ -113,6 +113,12 @@ class TeamGraph {
   /// which.
   BackendSnapshot optimize();
 
+  /// The whole graph of the last optimisation for inspection (writeG2o): own and teammates'
+  /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
+  /// `robots`; the index is the keyframe id), and each edge's switch value (1 for odometry).
+  backend::PoseGraph exportGraph(std::vector<double>* switch_values,
+                                 std::vector<std::string>* robots) const;
+
   /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
   /// teammates' parts and every accepted closure included).
   std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
@@ -148,6 +154,7 @@ class TeamGraph {
   std::vector<double> last_weights_;
   backend::PoseGraph last_graph_;   // the whole graph of the last optimisation
   std::size_t last_own_count_ = 0;  // own keyframes (its first nodes) in last_graph_
+  std::vector<std::pair<std::string, KeyframeId>> last_nodes_;  // the keyframe of each node
 
   /// Index of own keyframe `id` in the graph, or -1.
   int ownIndex(KeyframeId id) const;
