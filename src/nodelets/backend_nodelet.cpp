@@ -1,9 +1,7 @@
 // Backend: keyframes + loop closures -> optimised trajectory, map -> odom and team transforms on
-// tf, TeamTransform messages, teammates' keyframes as the team graph places them, pose
-// uncertainty. Callbacks hand their input to the core's
-// TeamGraphWorker, which optimises on its own thread at optimize_period_s and as soon as a loop
-// closure arrives, so no solve ever holds a manager thread; it also decides where each loop
-// closure goes (core::backend::routeOwnLoop / routeTeammateLoop).
+// tf, TeamTransform, teammates' keyframes as the team graph places them, pose uncertainty.
+// Callbacks hand their input to the core's TeamGraphWorker, which optimises on its own thread
+// (at optimize_period_s and as soon as a loop closure arrives) and routes each loop closure.
 #include <mutex>
 
 #include <nav_msgs/Path.h>
@@ -75,20 +73,9 @@ class BackendNodelet final : public PipelineNodelet {
   }
 
   void onRefused(Worker::Refusal why, const std::string& what) {
-    switch (why) {
-      case Worker::Refusal::kDuplicateLoopClosure:
-        return count("duplicate loop_closures");  // the teammate found it too
-      case Worker::Refusal::kIgnoredLoopClosure:
-        return count("ignored inbox/loop_closures (not with this robot)");
-      case Worker::Refusal::kKeyframe:
-        return drop("keyframes", "dropping %s", what.c_str());
-      case Worker::Refusal::kPeerKeyframe:
-        return drop("teammate_scans", "dropping teammate %s", what.c_str());
-      case Worker::Refusal::kLoopClosure:
-        return drop("loop_closures", "dropping %s", what.c_str());
-      case Worker::Refusal::kTeammateLoopClosure:
-        return drop("inbox/loop_closures", "dropping a teammate's %s", what.c_str());
-    }
+    const auto report = Worker::reportOf(why);
+    if (!report.dropped) return count(report.flow);
+    drop(report.flow, "dropping %s (from %s)", what.c_str(), report.flow);
   }
 
   // On the worker's thread.
@@ -116,9 +103,8 @@ class BackendNodelet final : public PipelineNodelet {
                   conversions::toTeamKeyframePosesMsg(keyframes, map_frame, stamp)));
     }
     if (settings_.publish_tf) {
-      // A re-optimisation without a new keyframe (a teammate's scan, a loop closure) must still
-      // reach tf: tf2 ignores a transform repeated at a stamp it has, so the stamp moves on by 1
-      // us.
+      // A re-optimisation without a new keyframe must reach tf too: tf2 ignores a transform
+      // repeated at a stamp it has, so the stamp moves on by 1 us.
       last_tf_stamp_ = std::max(stamp, last_tf_stamp_ + ros::Duration(1e-6));
       tf_broadcaster_.sendTransform(
           conversions::toTfMsgs(snapshot, map_frame, settings_.frames.odom_frame, last_tf_stamp_));
@@ -132,25 +118,23 @@ class BackendNodelet final : public PipelineNodelet {
       }
     }
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    last_ = {snapshot.solve_s, snapshot.intra_loops, snapshot.intra_loops_rejected,
-             snapshot.inter_loops, snapshot.inter_loops_rejected};
+    last_solve_s_ = snapshot.solve_s;
+    last_loops_ = snapshot.loops;
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    status.addf("last optimisation s", "%.3f", last_.solve_s);
-    status.add("intra-robot loops", last_.intra_loops);
-    status.add("intra-robot loops rejected", last_.intra_loops_rejected);
-    status.add("inter-robot loops in the graph", last_.inter_loops);
-    status.add("inter-robot loops rejected", last_.inter_loops_rejected);
+    status.addf("last optimisation s", "%.3f", last_solve_s_);
+    status.add("intra-robot loops", last_loops_.intra);
+    status.add("intra-robot loops rejected", last_loops_.intra_rejected);
+    status.add("inter-robot loops in the graph", last_loops_.inter);
+    status.add("inter-robot loops rejected", last_loops_.inter_rejected);
   }
 
   ros_params::BackendSettings settings_;
   std::mutex stats_mutex_;
-  struct {
-    double solve_s = 0.0;
-    int intra_loops = 0, intra_loops_rejected = 0, inter_loops = 0, inter_loops_rejected = 0;
-  } last_;  // the newest optimisation's, for diagnostics
+  double last_solve_s_ = 0.0;  // the newest optimisation's, for diagnostics
+  core::team::BackendSnapshot::LoopCounts last_loops_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_stamp_;         // of the last transforms sent (worker thread only)
   std::unique_ptr<Worker> worker_;  // last: stopped first, while what it publishes with lives

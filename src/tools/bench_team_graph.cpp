@@ -272,8 +272,8 @@ Outcome evaluate(const BackendSnapshot& s, std::size_t r,
   }
   out.keyframes = estimate.size();
   out.ate_m = ccir_mapping::core::backend::absoluteTrajectoryError(estimate, truth);
-  out.inter_loops = s.inter_loops;
-  out.inter_loops_rejected = s.inter_loops_rejected;
+  out.inter_loops = s.loops.inter;
+  out.inter_loops_rejected = s.loops.inter_rejected;
   return out;
 }
 

@@ -67,7 +67,11 @@ TEST(ParamsValidation, Backend) {
   p.switch_prior_sigma = -1.0;
   p.max_iterations = 0;
   p.min_team_inliers = 2;
+  p.team_disagreement_m = 0.0;
+  p.team_disagreement_deg = 200.0;
   const auto errors = p.validate();
+  EXPECT_TRUE(mentions(errors, "team_disagreement_m = 0"));
+  EXPECT_TRUE(mentions(errors, "team_disagreement_deg = 200"));
   EXPECT_TRUE(mentions(errors, "switch_prior_sigma = -1"));
   EXPECT_TRUE(mentions(errors, "min_team_inliers = 2"));
   EXPECT_TRUE(mentions(errors, "max_iterations = 0"));

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <tuple>
 
 #include <Eigen/Geometry>
 
@@ -220,8 +221,8 @@ TEST_F(Corridor, AfterTheSecondMeetingTheTeammatesFarKeyframesMoveTowardsTheTrut
   ASSERT_TRUE(estimateOf(first).in_graph) << estimateOf(first).alignment.reason;
   ASSERT_EQ(first.peer_keyframes.size(), 1U);
   EXPECT_EQ(first.peer_keyframes[0].robot, "robot_b");
-  EXPECT_EQ(first.inter_loops, 15);
-  EXPECT_EQ(first.inter_loops_rejected, 0);
+  EXPECT_EQ(first.loops.inter, 15);
+  EXPECT_EQ(first.loops.inter_rejected, 0);
   ASSERT_EQ(first.notices.size(), 1U);
   EXPECT_EQ(first.notices[0].text, "robot_b joins the graph: 15 of 15 closures agree");
   const double far_before = errorOf(first, 45, 59);
@@ -230,8 +231,8 @@ TEST_F(Corridor, AfterTheSecondMeetingTheTeammatesFarKeyframesMoveTowardsTheTrut
 
   meet(graph, 45, 59);
   const BackendSnapshot second = graph.optimize();
-  EXPECT_EQ(second.inter_loops, 30);
-  EXPECT_EQ(second.inter_loops_rejected, 0) << "true closures seen after drift";
+  EXPECT_EQ(second.loops.inter, 30);
+  EXPECT_EQ(second.loops.inter_rejected, 0) << "true closures seen after drift";
   const double far_after = errorOf(second, 45, 59);
   // Towards the truth, not onto it: robot a's own odometry is as uncertain as b's to the graph,
   // so the two share b's drift (a's far end moves too); relative to a, b is where it should be
@@ -257,8 +258,8 @@ TEST_F(Corridor, AFalseClosureAmongTrueOnesIsSwitchedOff) {
   ASSERT_TRUE(graph.addLoopClosure(loop(30, 22)));
   const BackendSnapshot snapshot = graph.optimize();
   ASSERT_TRUE(estimateOf(snapshot).in_graph);
-  EXPECT_EQ(snapshot.inter_loops, 16);
-  EXPECT_EQ(snapshot.inter_loops_rejected, 1);
+  EXPECT_EQ(snapshot.loops.inter, 16);
+  EXPECT_EQ(snapshot.loops.inter_rejected, 1);
   int rejected = 0;
   for (const auto& line : snapshot.loop_lines) {
     if (line.accepted) continue;
@@ -317,7 +318,7 @@ TEST_F(Corridor, OneFalseClosureAloneNeverMakesATeamTransform) {
   EXPECT_FALSE(estimateOf(snapshot).alignment.found);
   EXPECT_FALSE(estimateOf(snapshot).in_graph);
   EXPECT_TRUE(snapshot.peer_keyframes.empty());
-  EXPECT_EQ(snapshot.inter_loops, 0);
+  EXPECT_EQ(snapshot.loops.inter, 0);
   EXPECT_TRUE(snapshot.poses.back().isApprox(own_.back(), 1e-9)) << "own graph untouched";
 }
 
@@ -354,7 +355,7 @@ TEST_F(Corridor, ALaterDisagreeingEmTransformIsLoggedAndTheGraphKeptWhileItsSwit
       << snapshot.notices[0].text;
   EXPECT_TRUE(estimate.in_graph);
   EXPECT_LT(transformError(snapshot), 0.1) << "the graph's transform, not the EM's";
-  EXPECT_EQ(snapshot.inter_loops_rejected, 18);
+  EXPECT_EQ(snapshot.loops.inter_rejected, 18);
 }
 
 TEST_F(Corridor, ADisagreeingEmTransformReplacesAGraphWhoseSwitchesRejectedItsClosures) {
@@ -377,7 +378,7 @@ TEST_F(Corridor, ADisagreeingEmTransformReplacesAGraphWhoseSwitchesRejectedItsCl
       << snapshot.notices[0].text;
   EXPECT_TRUE(estimateOf(snapshot).in_graph);
   EXPECT_LT(transformError(snapshot), 0.1) << "re-optimised from the EM's transform";
-  EXPECT_EQ(snapshot.inter_loops_rejected, 6);
+  EXPECT_EQ(snapshot.loops.inter_rejected, 6);
 }
 
 TEST_F(Corridor, WithoutTheTeamGraphTheTeammateStaysOutAndIsPlacedByTheEmAlone) {
@@ -390,7 +391,7 @@ TEST_F(Corridor, WithoutTheTeamGraphTheTeammateStaysOutAndIsPlacedByTheEmAlone) 
   EXPECT_TRUE(estimateOf(snapshot).alignment.found);
   EXPECT_FALSE(estimateOf(snapshot).in_graph);
   EXPECT_TRUE(snapshot.peer_keyframes.empty());
-  EXPECT_EQ(snapshot.inter_loops, 0);
+  EXPECT_EQ(snapshot.loops.inter, 0);
   EXPECT_EQ(snapshot.loop_lines.size(), 15U) << "the EM's inliers";
 }
 
@@ -501,7 +502,7 @@ TEST(TeamGraphWorker, OptimisesOnATickAndAtOnceForALoopClosureAndReportsWhatItRe
     worker.addOwnLoop(loop);
     ASSERT_TRUE(optimised(3));
     std::lock_guard<std::mutex> lock(mutex);
-    EXPECT_EQ(snapshots[1].intra_loops, 1);
+    EXPECT_EQ(snapshots[1].loops.intra, 1);
     ASSERT_EQ(refusals.size(), 1U);
     EXPECT_EQ(refusals[0].first, Worker::Refusal::kDuplicateLoopClosure);
     EXPECT_EQ(refusals[0].second, "loop closure robot_a/0 -> robot_a/4: known");
@@ -550,6 +551,22 @@ TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed
   EXPECT_EQ(refusals[2].first, Worker::Refusal::kTeammateLoopClosure);
   EXPECT_EQ(refusals[2].second, "loop closure robot_b/0 -> robot_a/3: no odom_pose_from");
   EXPECT_EQ(refusals[3].first, Worker::Refusal::kIgnoredLoopClosure);
+}
+
+TEST(TeamGraphWorker, RefusalsAreDroppedOnTheirTopicsFlowOrOnlyCountedWhenNothingIsWrong) {
+  using Worker = TeamGraphWorker;
+  using R = Worker::Refusal;
+  const std::vector<std::tuple<R, std::string, bool>> expected = {
+      {R::kKeyframe, "keyframes", true},
+      {R::kPeerKeyframe, "teammate_scans", true},
+      {R::kLoopClosure, "loop_closures", true},
+      {R::kTeammateLoopClosure, "inbox/loop_closures", true},
+      {R::kIgnoredLoopClosure, "ignored inbox/loop_closures (not with this robot)", false},
+      {R::kDuplicateLoopClosure, "duplicate loop_closures", false}};
+  for (const auto& [why, flow, dropped] : expected) {
+    EXPECT_EQ(Worker::reportOf(why).flow, flow);
+    EXPECT_EQ(Worker::reportOf(why).dropped, dropped) << flow;
+  }
 }
 
 }  // namespace

@@ -102,8 +102,7 @@ int TeamGraph::ownIndex(KeyframeId id) const {
 
 void TeamGraph::solve(BackendSnapshot& snapshot) {
   snapshot.loop_lines.clear();
-  snapshot.intra_loops = snapshot.intra_loops_rejected = 0;
-  snapshot.inter_loops = snapshot.inter_loops_rejected = 0;
+  snapshot.loops = {};
   PoseGraph graph = graph_;  // own keyframes and odometry
   const std::size_t own_count = graph.poses.size();
   for (const auto& loop : loops_) {
@@ -118,7 +117,7 @@ void TeamGraph::solve(BackendSnapshot& snapshot) {
     edge.information = loop.covariance.inverse();
     edge.loop = true;
     graph.edges.push_back(edge);
-    ++snapshot.intra_loops;
+    ++snapshot.loops.intra;
   }
   // Each joined teammate's known keyframes, in id order: a keyframe placed before keeps its
   // optimised pose, a new one continues from the previous node by its odometry step (or is
@@ -160,7 +159,7 @@ void TeamGraph::solve(BackendSnapshot& snapshot) {
     const int own = ownIndex(outgoing ? loop.keyframe_from : loop.keyframe_to);
     const auto other = peer_node.find({peer, outgoing ? loop.keyframe_to : loop.keyframe_from});
     if (own < 0 || other == peer_node.end()) continue;
-    ++snapshot.inter_loops;
+    ++snapshot.loops.inter;
     const LoopKey key = keyOf(loop);
     if (!gate_[peer].count(key) && !kept_[peer].count(key)) {
       gated_out.emplace_back(own, other->second);
@@ -193,15 +192,15 @@ void TeamGraph::solve(BackendSnapshot& snapshot) {
     if (to >= own_count) {
       const auto& [peer, key] = edge_loop[inter++];
       if (accepted) kept_[peer].insert(key);
-      snapshot.inter_loops_rejected += !accepted;
+      snapshot.loops.inter_rejected += !accepted;
     } else {
-      snapshot.intra_loops_rejected += !accepted;
+      snapshot.loops.intra_rejected += !accepted;
     }
     snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
                                    graph.poses[to].translation(), accepted, to >= own_count});
   }
   for (const auto& [own, other] : gated_out) {
-    ++snapshot.inter_loops_rejected;
+    ++snapshot.loops.inter_rejected;
     snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(own)].translation(),
                                    graph.poses[static_cast<std::size_t>(other)].translation(),
                                    false, true});

@@ -81,6 +81,24 @@ void TeamGraphWorker::addTeammateLoop(const LoopClosureData& loop) {
   }
 }
 
+TeamGraphWorker::RefusalReport TeamGraphWorker::reportOf(Refusal why) {
+  switch (why) {
+    case Refusal::kKeyframe:
+      return {"keyframes", true};
+    case Refusal::kPeerKeyframe:
+      return {"teammate_scans", true};
+    case Refusal::kLoopClosure:
+      return {"loop_closures", true};
+    case Refusal::kTeammateLoopClosure:
+      return {"inbox/loop_closures", true};
+    case Refusal::kIgnoredLoopClosure:
+      return {"ignored inbox/loop_closures (not with this robot)", false};
+    case Refusal::kDuplicateLoopClosure:
+      break;
+  }
+  return {"duplicate loop_closures", false};  // the teammate found it too
+}
+
 void TeamGraphWorker::refuse(Refusal why, const std::string& text) const {
   if (hooks_.refused) hooks_.refused(why, text);
 }

@@ -67,11 +67,11 @@ struct BackendSnapshot {
   /// Teammates in the graph, in name order.
   std::vector<PeerKeyframes> peer_keyframes;
   std::vector<LoopLine> loop_lines;
-  int intra_loops = 0;
-  int intra_loops_rejected = 0;
-  /// Inter-robot closures in the graph, and those its switches turned off.
-  int inter_loops = 0;
-  int inter_loops_rejected = 0;
+  /// Intra-robot closures and those the switches turned off; inter-robot closures with joined
+  /// teammates and those the gate or the switches turned away.
+  struct LoopCounts {
+    int intra = 0, intra_rejected = 0, inter = 0, inter_rejected = 0;
+  } loops;
   /// What this optimisation decided that a user should hear of (a teammate joined, an EM
   /// result disagreeing with the graph and how it was resolved).
   std::vector<Notice> notices;

@@ -43,6 +43,14 @@ class TeamGraphWorker {
     kIgnoredLoopClosure,    ///< a teammate's closure between others, or this robot's coming back
     kDuplicateLoopClosure,  ///< one it has (the teammate found and sent it too)
   };
+  /// How a refusal shows in diagnostics: the flow (topic) it counts in, and whether the input
+  /// was dropped (worth a warning) or only set aside (nothing wrong with it).
+  struct RefusalReport {
+    const char* flow;
+    bool dropped;
+  };
+  static RefusalReport reportOf(Refusal why);
+
   struct Hooks {
     /// Runs a batch (apply the inputs, optimise) and returns its snapshot: lets the caller
     /// measure it.
