@@ -1,6 +1,7 @@
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -243,12 +244,15 @@ std::vector<std::string> AlignmentParams::validate() const {
   check.inHalfOpenRange("outlier_extent_m", outlier_extent_m, 0.0, 1e6);
   check.inRange("max_iterations", max_iterations, 1, 10000);
   check.inHalfOpenRange("cluster_yaw_scale_m", cluster_yaw_scale_m, 0.0, 1e6);
+  check.inRange("max_support_starts", max_support_starts, 1, 1000000);
+  check.inRange("max_time_s", max_time_s, 0.0, 1e6);
   return check.errors();
 }
 
 AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& candidates,
                                        const AlignmentParams& params) {
   validated(params);
+  const auto begin = std::chrono::steady_clock::now();
   AlignmentResult result;
   const int n = static_cast<int>(candidates.size());
   result.weights.assign(candidates.size(), 0.0);
@@ -308,23 +312,35 @@ AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& ca
     }
     if (nearest >= 0) starts.push_back(prepared.implied[static_cast<std::size_t>(nearest)]);
   }
+  // Support is counted over all candidates for at most max_support_starts of them (evenly
+  // spread): counting it for each of n is O(n^2), seconds once a long mission has thousands.
   std::vector<std::pair<int, int>> support;  // (agreeing candidates, k)
-  for (int k = 0; k < n; ++k) {
+  const int sampled = std::min(n, params.max_support_starts);
+  for (int i = 0; i < sampled; ++i) {
+    const int k = static_cast<int>(static_cast<long>(i) * n / sampled);
     support.emplace_back(em.inliersOf(prepared.implied[static_cast<std::size_t>(k)]), k);
   }
   std::sort(support.rbegin(), support.rend());
-  for (int i = 0, added = 0; i < n && added < 5; ++i) {
-    const Pose3& t =
-        prepared.implied[static_cast<std::size_t>(support[static_cast<std::size_t>(i)].second)];
-    if (std::all_of(starts.begin() + clusters, starts.end(),
+  // The best supported starts run first: when time runs out, the rest are skipped.
+  std::vector<Pose3> supported;
+  for (std::size_t i = 0; i < support.size() && supported.size() < 5; ++i) {
+    const Pose3& t = prepared.implied[static_cast<std::size_t>(support[i].second)];
+    if (std::all_of(supported.begin(), supported.end(),
                     [&](const Pose3& s) { return distinct(s, t); })) {
-      starts.push_back(t);
-      ++added;
+      supported.push_back(t);
     }
   }
+  starts.insert(starts.begin(), supported.begin(), supported.end());
 
   std::vector<Hypothesis> hypotheses;
-  for (const Pose3& start : starts) hypotheses.push_back(em.run(start));
+  for (const Pose3& start : starts) {
+    if (!hypotheses.empty() && params.max_time_s > 0.0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count() >
+            params.max_time_s) {
+      break;
+    }
+    hypotheses.push_back(em.run(start));
+  }
   const auto better = [](const Hypothesis& a, const Hypothesis& b) {
     return a.inliers != b.inliers ? a.inliers > b.inliers : a.trace.back() > b.trace.back();
   };

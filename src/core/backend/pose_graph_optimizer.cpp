@@ -225,7 +225,9 @@ std::vector<std::string> OptimizerParams::validate() const {
 PoseGraphOptimizer::PoseGraphOptimizer(const OptimizerParams& params)
     : params_(validated(params)) {}
 
-OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
+OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph,
+                                                std::optional<double> max_time_s) const {
+  const double budget_s = max_time_s.value_or(params_.max_solve_time_s);
   checkEdges(graph);
   OptimizationResult result;
   result.weights.assign(graph.edges.size(), 1.0);
@@ -240,12 +242,11 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph) const {
   const PoseGraph initial = graph;
   // max_solve_time_s bounds the whole optimisation: each solve gets what the ones before left,
   // and the optional ones (retry, refinement) are skipped when nothing is left.
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::duration<double>(params_.max_solve_time_s);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(budget_s);
   const auto remaining = [&] {
     return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
   };
-  solve(graph, switches, result, params_.max_solve_time_s);
+  solve(graph, switches, result, budget_s);
   classify(graph, switches, result);
 
   // Most loops off can mean false loops, or true ones seen after drift larger than their

@@ -100,7 +100,7 @@ int TeamGraph::ownIndex(KeyframeId id) const {
   return it == index_.end() ? -1 : it->second;
 }
 
-void TeamGraph::solve(BackendSnapshot& snapshot) {
+void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
   snapshot.loop_lines.clear();
   snapshot.loops = {};
   PoseGraph graph = graph_;  // own keyframes and odometry
@@ -177,7 +177,7 @@ void TeamGraph::solve(BackendSnapshot& snapshot) {
 
   kept_.clear();
   if (graph.poses.size() < 2) return;
-  const OptimizationResult result = optimizer_.optimize(graph);
+  const OptimizationResult result = optimizer_.optimize(graph, max_time_s);
   graph_.poses.assign(graph.poses.begin(), graph.poses.begin() + own_count);
   for (std::size_t k = own_count; k < graph.poses.size(); ++k) {
     const auto& [peer, id] = node_keyframe[k - own_count];
@@ -335,11 +335,19 @@ BackendSnapshot TeamGraph::optimize() {
   em.min_inlier_margin = params_.team_inlier_margin;
   gate_.clear();
   std::vector<LoopLine> em_lines;  // of teammates out of the graph (only without team_graph)
-  for (const auto& [peer, candidates] : candidates()) {
+  const auto elapsed_s = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  const auto all_candidates = candidates();
+  std::size_t peers_left = all_candidates.size();
+  for (const auto& [peer, candidates] : all_candidates) {
     const auto& list = candidates.list;
     TeamEstimate estimate;
     estimate.peer = peer;
     estimate.candidates = static_cast<int>(list.size());
+    // Its share of what the EM has left (its best supported start runs whatever is left).
+    em.max_time_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
+                    static_cast<double>(peers_left--);
     estimate.alignment = alignment::estimateFrameTransform(list, em);
     const alignment::AlignmentResult& found = estimate.alignment;
     auto joined = joined_.find(peer);
@@ -385,7 +393,8 @@ BackendSnapshot TeamGraph::optimize() {
     }
     snapshot.team.push_back(estimate);
   }
-  solve(snapshot);  // a teammate that joined or was placed again is optimised now
+  // A teammate that joined or was placed again is optimised now.
+  solve(snapshot, std::max(params_.max_solve_time_s - elapsed_s(), 1e-3));
   snapshot.loop_lines.insert(snapshot.loop_lines.end(), em_lines.begin(), em_lines.end());
   for (auto& estimate : snapshot.team) {
     if (!joined_.count(estimate.peer)) continue;

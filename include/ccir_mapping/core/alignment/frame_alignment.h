@@ -46,6 +46,12 @@ struct AlignmentParams {
   int max_iterations = 50;
   /// Metres per radian of yaw when clustering the implied transforms.
   double cluster_yaw_scale_m = 5.0;
+  /// Besides k-means centres, EM starts from the candidates most others agree with, counted
+  /// for at most this many candidates (evenly spread over them).
+  int max_support_starts = 256;
+  /// Wall time after which no further EM start is run (the best supported one always is);
+  /// 0: no bound.
+  double max_time_s = 0.0;
   int seed = 1;
 
   std::vector<std::string> validate() const;

@@ -66,8 +66,10 @@ class PoseGraphOptimizer {
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit PoseGraphOptimizer(const OptimizerParams& params);
 
-  /// Optimises graph.poses in place from their current values.
-  OptimizationResult optimize(PoseGraph& graph) const;
+  /// Optimises graph.poses in place from their current values, within `max_time_s` of wall
+  /// time (default: params.max_solve_time_s).
+  OptimizationResult optimize(PoseGraph& graph,
+                              std::optional<double> max_time_s = std::nullopt) const;
 
   /// Marginal covariances of poses `ids` in their tangent space (as the residuals: [x y theta]
   /// or [x y z, rotation vector], rotation in the pose's frame) at the current estimate, first

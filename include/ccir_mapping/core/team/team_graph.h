@@ -104,14 +104,16 @@ class TeamGraph {
   /// of a pair may find and share it, and it must count once.
   bool knows(const backend::LoopClosureData& loop) const;
 
-  /// Optimises the graph and re-estimates every team transform. A teammate whose EM transform
-  /// is found joins the graph (and is optimised at once). Once joined, a later EM transform
-  /// farther than team_disagreement_m / _deg from the graph's is a disagreement, resolved by the
-  /// EM's own rule: the graph's transform is kept while its switches accept at least the EM's
-  /// inlier count less team_inlier_margin closures with that teammate; otherwise the teammate's
-  /// part is placed again from the EM transform and re-optimised. Either way a notice says
-  /// which.
+  /// Optimises the graph and re-estimates every team transform, within max_solve_time_s (the
+  /// EM gets at most kEmTimeShare of it, split between the teammates; the solve the rest). A
+  /// teammate whose EM transform is found joins the graph (and is optimised at once). Once joined,
+  /// a later EM transform farther than team_disagreement_m / _deg from the graph's is a
+  /// disagreement, resolved by the EM's own rule: the graph's transform is kept while its switches
+  /// accept at least the EM's inlier count less team_inlier_margin closures with that teammate;
+  /// otherwise the teammate's part is placed again from the EM transform and re-optimised. Either
+  /// way a notice says which.
   BackendSnapshot optimize();
+  static constexpr double kEmTimeShare = 0.4;
 
   /// The whole graph of the last optimisation for inspection (writeG2o): own and teammates'
   /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
@@ -161,7 +163,7 @@ class TeamGraph {
   /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
   /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_), keeps its poses
   /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
-  void solve(BackendSnapshot& snapshot);
+  void solve(BackendSnapshot& snapshot, double max_time_s);
   /// The EM's candidates with one teammate, and the closure each one is.
   struct Candidates {
     std::vector<alignment::AlignmentCandidate> list;
