@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include <nav_msgs/Path.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -29,7 +30,11 @@ class BackendNodelet final : public PipelineNodelet {
     hooks.optimized = [this](const auto& snapshot, const TeamGraph& graph) {
       onOptimized(snapshot, graph);
     };
-    hooks.refused = [this](Worker::Refusal why, const std::string& what) { onRefused(why, what); };
+    hooks.refused = [this](Worker::Refusal why, const std::string& what) {
+      const auto report = Worker::reportOf(why);
+      if (!report.dropped) return count(report.flow);
+      drop(report.flow, "dropping %s (from %s)", what.c_str(), report.flow);
+    };
     worker_ = std::make_unique<Worker>(std::make_unique<TeamGraph>(robot(), settings_.core), hooks);
     advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
@@ -45,6 +50,19 @@ class BackendNodelet final : public PipelineNodelet {
     subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
               &BackendNodelet::onTeammateLoopClosure);
     createPeriodicTimer(settings_.core.optimize_period_s, [this] { worker_->tick(); });
+    save_srv_ = getPrivateNodeHandle().advertiseService("save_team_graph",
+                                                        &BackendNodelet::onSaveGraph, this);
+  }
+
+  bool onSaveGraph(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+    const std::string& path = settings_.graph_path;
+    try {  // waits for the optimisation under way, if any
+      response.success = worker_->inspect([&](const TeamGraph& graph) { graph.saveG2o(path); });
+      response.message = (response.success ? "saved " : "stopping: not saved ") + path;
+    } catch (const std::exception& e) {
+      response.message = e.what();
+    }
+    return true;
   }
 
   const std::string& robot() const { return settings_.frames.robot_name; }
@@ -70,12 +88,6 @@ class BackendNodelet final : public PipelineNodelet {
     if (conversions::toLoopClosure(msg, &loop)) return loop;
     drop(flow, "dropping a loop closure from %s: relative pose not finite", flow);
     return std::nullopt;
-  }
-
-  void onRefused(Worker::Refusal why, const std::string& what) {
-    const auto report = Worker::reportOf(why);
-    if (!report.dropped) return count(report.flow);
-    drop(report.flow, "dropping %s (from %s)", what.c_str(), report.flow);
   }
 
   // On the worker's thread.
@@ -137,7 +149,8 @@ class BackendNodelet final : public PipelineNodelet {
   core::team::BackendSnapshot::LoopCounts last_loops_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_stamp_;         // of the last transforms sent (worker thread only)
-  std::unique_ptr<Worker> worker_;  // last: stopped first, while what it publishes with lives
+  std::unique_ptr<Worker> worker_;  // stopped after the service, while what it publishes with lives
+  ros::ServiceServer save_srv_;
 };
 
 }  // namespace ccir_mapping

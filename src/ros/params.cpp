@@ -98,6 +98,13 @@ void forEachEntry(ParamReader& reader, const std::string& key, Fn fn) {
   }
 }
 
+/// `name` in $ROS_HOME (~/.ros without it), where ROS tools write by default.
+std::string rosHomeFile(const std::string& name) {
+  const char* ros_home = std::getenv("ROS_HOME");
+  const char* home = std::getenv("HOME");
+  return (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" + name;
+}
+
 }  // namespace
 
 void load(ParamReader& reader, PreprocessorSettings& config) {
@@ -170,6 +177,7 @@ void load(ParamReader& reader, BackendSettings& config) {
   reader.read("team_disagreement_m", p.team_disagreement_m);
   reader.read("team_disagreement_deg", p.team_disagreement_deg);
   reader.addErrors(p.validate());
+  config.graph_path = rosHomeFile(config.frames.robot_name + "_team_graph.g2o");
 }
 
 void load(ParamReader& reader, MapperSettings& config) {
@@ -191,13 +199,7 @@ void load(ParamReader& reader, MapperSettings& config) {
   reader.read("map_path", config.map_path);
   reader.read("save_on_shutdown", config.save_on_shutdown);
   reader.addErrors(p.validate());
-  if (config.map_path.empty()) {
-    const char* ros_home = std::getenv("ROS_HOME");
-    const char* home = std::getenv("HOME");
-    config.map_path =
-        (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" +
-        config.frames.robot_name + "_map.bt";
-  }
+  if (config.map_path.empty()) config.map_path = rosHomeFile(config.frames.robot_name + "_map.bt");
 }
 
 void load(ParamReader& reader, BrokerSettings& config) {

@@ -20,7 +20,6 @@
 #include <Eigen/Geometry>
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/core/backend/trajectory_error.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/simulation/mission.h"
@@ -344,11 +343,8 @@ Results run(const Options& o) {
       }
     }
     if (!o.g2o_dir.empty()) {
-      std::vector<double> switches;
-      std::vector<std::string> lettered;
-      const auto exported = graph.exportGraph(&switches, &lettered);
       const std::string path = o.g2o_dir + "/team_graph_" + name + ".g2o";
-      ccir_mapping::core::backend::writeG2o(exported, path, switches);
+      graph.saveG2o(path);
       std::fprintf(stderr, "bench_team_graph: wrote %s\n", path.c_str());
     }
     r.graph.push_back(evaluate(last_graph, robot, kf, mission, both));

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <stdexcept>
+#include <thread>
 #include <tuple>
 
 #include <Eigen/Geometry>
@@ -551,6 +553,34 @@ TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed
   EXPECT_EQ(refusals[2].first, Worker::Refusal::kTeammateLoopClosure);
   EXPECT_EQ(refusals[2].second, "loop closure robot_b/0 -> robot_a/3: no odom_pose_from");
   EXPECT_EQ(refusals[3].first, Worker::Refusal::kIgnoredLoopClosure);
+}
+
+TEST(TeamGraphWorker, InspectRunsATaskWithTheGraphOnTheWorkersThreadAndWaitsForIt) {
+  using Worker = TeamGraphWorker;
+  Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), Worker::Hooks{});
+  for (KeyframeId id = 0; id < 3; ++id) {
+    worker.add(Worker::OwnKeyframe{"robot_a", id, fromSeconds(100.0 + id),
+                                   Pose3(Eigen::Translation3d(double(id), 0.0, 0.0))});
+  }
+  worker.tick();
+  // The tick's optimisation comes first or the task sees an unoptimised graph: await the one
+  // holding all three keyframes.
+  std::size_t poses = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  std::thread::id worker_thread;
+  while (poses < 3 && std::chrono::steady_clock::now() < deadline) {
+    ASSERT_TRUE(worker.inspect([&](const TeamGraph& graph) {
+      std::vector<double> switches;
+      std::vector<std::string> robots;
+      poses = graph.exportGraph(&switches, &robots).poses.size();
+      worker_thread = std::this_thread::get_id();
+    }));
+  }
+  EXPECT_EQ(poses, 3U);
+  EXPECT_NE(worker_thread, std::this_thread::get_id());
+  EXPECT_THROW(worker.inspect([](const TeamGraph&) { throw std::runtime_error("disk full"); }),
+               std::runtime_error);
+  EXPECT_TRUE(worker.inspect([](const TeamGraph&) {})) << "the worker survives a failed task";
 }
 
 TEST(TeamGraphWorker, RefusalsAreDroppedOnTheirTopicsFlowOrOnlyCountedWhenNothingIsWrong) {

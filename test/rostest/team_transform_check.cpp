@@ -5,6 +5,7 @@
 // teammates. Unusable closures among them are counted as dropped.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <set>
@@ -14,6 +15,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
@@ -24,6 +26,7 @@
 #include "ccir_mapping/LoopClosure.h"
 #include "ccir_mapping/TeamTransform.h"
 #include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "wait_for.h"
 
@@ -206,6 +209,20 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   const Eigen::Isometry3d error = s.truth.inverse() * estimate;
   EXPECT_LT(error.translation().norm(), 0.15);
   EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 1.0);
+
+  // ~save_team_graph writes the whole graph, robot_b's keyframes with robot_a's, as g2o.
+  std_srvs::Trigger save;
+  ASSERT_TRUE(ros::service::waitForService("backend/save_team_graph", 10000));
+  ASSERT_TRUE(ros::service::call("backend/save_team_graph", save));
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  const std::string path = save.response.message.substr(save.response.message.find('/'));
+  const core::backend::PoseGraph saved = core::backend::readG2o(path);
+  const auto robot_b_poses = std::count_if(saved.keys.begin(), saved.keys.end(),
+                                           [](const auto& key) { return key.robot == 'b'; });
+  EXPECT_EQ(robot_b_poses, static_cast<long>(s.poses_b.size()));
+  EXPECT_EQ(saved.keys.size(), s.poses_a.size() + s.poses_b.size());
+  EXPECT_GE(saved.loopCount(), 12U) << "the closures the EM let in";
+  std::remove(path.c_str());
 
   // One more teammate keyframe: a re-optimisation without a new own keyframe, whose map -> odom
   // and team transform must reach tf as well.

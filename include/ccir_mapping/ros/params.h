@@ -44,6 +44,9 @@ struct BackendSettings {
   RobotFrames frames;
   /// Broadcast map -> odom (and team transforms) on tf.
   bool publish_tf = true;
+  /// Where ~save_team_graph writes (not a parameter): load() sets
+  /// $ROS_HOME/<robot>_team_graph.g2o (~/.ros without ROS_HOME).
+  std::string graph_path;
   core::backend::BackendParams core;
 };
 

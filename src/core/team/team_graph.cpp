@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <numeric>
 #include <stdexcept>
 #include <tuple>
 
 #include <Eigen/Geometry>
 
+#include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/core/common/param_check.h"
 
 namespace ccir_mapping::core::team {
@@ -419,6 +421,19 @@ BackendSnapshot TeamGraph::optimize() {
   snapshot.solve_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return snapshot;
+}
+
+void TeamGraph::saveG2o(const std::string& path) const {
+  std::vector<double> switches;
+  std::vector<std::string> robots;
+  const PoseGraph graph = exportGraph(&switches, &robots);
+  backend::writeG2o(graph, path, switches);
+  // The letters' robots, for a reader: g2o readers skip comment lines.
+  std::ofstream out(path, std::ios::app);
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    out << "# robot " << char('a' + r) << ": " << robots[r] << '\n';
+  }
+  if (!out) throw std::runtime_error("cannot write " + path);
 }
 
 std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(

@@ -1,5 +1,7 @@
 #include "ccir_mapping/core/team/team_graph_worker.h"
 
+#include <future>
+
 namespace ccir_mapping::core::team {
 
 using backend::LoopClosureData;
@@ -111,6 +113,30 @@ void TeamGraphWorker::tick() {
   wake_.notify_one();
 }
 
+bool TeamGraphWorker::inspect(const std::function<void(const TeamGraph&)>& task) {
+  auto done = std::make_shared<std::promise<void>>();
+  std::future<void> finished = done->get_future();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stop_) return false;
+    tasks_.push_back([task, done](const TeamGraph& graph) {
+      try {
+        task(graph);
+        done->set_value();
+      } catch (...) {
+        done->set_exception(std::current_exception());
+      }
+    });
+  }
+  wake_.notify_one();
+  try {
+    finished.get();
+  } catch (const std::future_error&) {
+    return false;  // dropped by a stopping worker
+  }
+  return true;
+}
+
 void TeamGraphWorker::queue(Input input, bool urgent) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -123,19 +149,23 @@ void TeamGraphWorker::queue(Input input, bool urgent) {
 void TeamGraphWorker::run() {
   while (true) {
     std::deque<Input> inputs;
+    std::deque<std::function<void(const TeamGraph&)>> tasks;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stop_ || due_; });
+      wake_.wait(lock, [this] { return stop_ || due_ || !tasks_.empty(); });
       if (stop_) return;
+      if (due_) inputs.swap(inputs_);
       due_ = false;
-      inputs.swap(inputs_);
+      tasks.swap(tasks_);
     }
-    if (inputs.empty()) continue;
-    const BackendSnapshot snapshot = hooks_.run([&] {
-      for (const Input& input : inputs) apply(input);
-      return graph_->optimize();
-    });
-    if (hooks_.optimized) hooks_.optimized(snapshot, *graph_);
+    if (!inputs.empty()) {
+      const BackendSnapshot snapshot = hooks_.run([&] {
+        for (const Input& input : inputs) apply(input);
+        return graph_->optimize();
+      });
+      if (hooks_.optimized) hooks_.optimized(snapshot, *graph_);
+    }
+    for (const auto& task : tasks) task(*graph_);
   }
 }
 

@@ -120,6 +120,9 @@ class TeamGraph {
   /// `robots`; the index is the keyframe id), and each edge's switch value (1 for odometry).
   backend::PoseGraph exportGraph(std::vector<double>* switch_values,
                                  std::vector<std::string>* robots) const;
+  /// exportGraph() written as g2o (switchable loop closures with their values), preceded by a
+  /// comment naming each robot's letter. Throws std::runtime_error when it cannot write.
+  void saveG2o(const std::string& path) const;
 
   /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
   /// teammates' parts and every accepted closure included).

@@ -78,6 +78,9 @@ class TeamGraphWorker {
   void addTeammateLoop(const backend::LoopClosureData& loop);
   /// Optimises if anything arrived since the last optimisation.
   void tick();
+  /// Runs `task` with the graph on the worker's thread (after the optimisation under way, if
+  /// any) and waits for it; rethrows what the task threw. False when the worker stopped first.
+  bool inspect(const std::function<void(const TeamGraph&)>& task);
 
  private:
   using Input = std::variant<OwnKeyframe, PeerKeyframe, backend::LoopClosureData>;
@@ -92,6 +95,7 @@ class TeamGraphWorker {
   std::mutex mutex_;  // guards what callers hand to the worker
   std::condition_variable wake_;
   std::deque<Input> inputs_;
+  std::deque<std::function<void(const TeamGraph&)>> tasks_;  // inspect()'s
   bool due_ = false;
   bool stop_ = false;
   std::thread thread_;  // last: starts once everything above is constructed
