@@ -479,6 +479,9 @@ TEST(G2o, MultiRobotGraphsAreReadByTheirRobotKeyedIdsAndTakeInterRobotOutliers) 
     if (!e.outlier) continue;
     EXPECT_NE(graph.keys[e.from].robot, graph.keys[e.to].robot) << "between the robots only";
   }
+  OutlierParams too_long = outliers;
+  too_long.group_size = 13;  // longer than either robot's 12 poses: no group fits
+  EXPECT_THROW(injectOutliers(graph, too_long), std::invalid_argument);
   writeG2o(graph, path.string());
   EXPECT_EQ(readG2o(path.string()).keys.size(), 24U) << "written back with the same ids";
 

@@ -1,6 +1,8 @@
 #include "ccir_mapping/core/backend/outlier_injector.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 #include <stdexcept>
 
@@ -38,8 +40,13 @@ void injectOutliers(PoseGraph& graph, const OutlierParams& params) {
     return graph.keys.empty() || graph.keys[i + span - 1].robot == graph.keys[i].robot;
   };
   if (params.inter_robot) {
+    // Two robots with a group's worth of poses each, or the draws below never end.
+    std::map<char, int> poses_of;
+    for (const VertexKey& key : graph.keys) ++poses_of[key.robot];
+    const auto holding = std::count_if(poses_of.begin(), poses_of.end(),
+                                       [&](const auto& robot) { return robot.second >= span; });
     if (params.mode == OutlierMode::kLocal || graph.keys.size() != graph.poses.size() ||
-        graph.keys.front().robot == graph.keys.back().robot) {
+        holding < 2) {
       throw std::invalid_argument(
           "cannot inject inter-robot outliers: need a graph of two robots or more, random or "
           "grouped");

@@ -80,6 +80,7 @@ class TeamGraphWorker {
   void tick();
   /// Runs `task` with the graph on the worker's thread (after the optimisation under way, if
   /// any) and waits for it; rethrows what the task threw. False when the worker stopped first.
+  /// Never from the worker's own thread (its hooks): it would wait for itself.
   bool inspect(const std::function<void(const TeamGraph&)>& task);
 
  private:
