@@ -72,6 +72,29 @@ TEST(FrameAlignment, SmallerConsistentFalseGroupLoses) {
   EXPECT_GE(result.runner_up_inliers, 6);  // the aliased group was seen, and lost
 }
 
+TEST(FrameAlignment, ACheckOfAKnownTransformCountsItsInliersAgainWithoutSearching) {
+  SyntheticSpec spec;
+  spec.seed = 2;
+  const SyntheticCandidates s = makeSyntheticCandidates(spec);  // 20 inliers, 60 outliers
+  const AlignmentResult found = estimateFrameTransform(s.candidates, AlignmentParams{});
+  ASSERT_TRUE(found.found) << found.reason;
+  const AlignmentResult same = checkFrameTransform(s.candidates, AlignmentParams{}, found);
+  EXPECT_TRUE(same.found);
+  EXPECT_EQ(same.inlier_count, found.inlier_count);
+  EXPECT_TRUE(same.transform.isApprox(found.transform));
+  // Only the false candidates and 5 true ones left: the transform no longer holds.
+  std::vector<AlignmentCandidate> fewer;
+  int kept_true = 0;
+  for (std::size_t k = 0; k < s.candidates.size(); ++k) {
+    if (s.inlier[k] && kept_true++ >= 5) continue;
+    fewer.push_back(s.candidates[k]);
+  }
+  const AlignmentResult weak = checkFrameTransform(fewer, AlignmentParams{}, found);
+  EXPECT_FALSE(weak.found);
+  EXPECT_LE(weak.inlier_count, 6);
+  EXPECT_NE(weak.reason.find("inliers of the transform found before"), std::string::npos);
+}
+
 TEST(FrameAlignment, NoInliersNoTransform) {
   SyntheticSpec aliased_only;
   aliased_only.inliers = 0;

@@ -312,6 +312,25 @@ TEST_F(Corridor, TheWholeTeamGraphIsExportedToG2oWithRobotKeyedIdsAndSwitchValue
   std::remove(path.c_str());
 }
 
+TEST_F(Corridor, BetweenFullEmRunsNewClosuresAreGatedByTheTransformFoundBefore) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 24);
+  ASSERT_TRUE(estimateOf(graph.optimize()).in_graph);
+  // One true and one false closure: less than 10 % more, so the transform is re-checked (one
+  // E-step), not searched again.
+  ASSERT_TRUE(graph.addLoopClosure(loop(25, 25)));
+  ASSERT_TRUE(graph.addLoopClosure(loop(40, 32)));
+  const BackendSnapshot snapshot = graph.optimize();
+  EXPECT_EQ(estimateOf(snapshot).alignment.log_likelihood_trace.size(), 1U);
+  EXPECT_EQ(estimateOf(snapshot).alignment.inlier_count, 26);
+  EXPECT_EQ(snapshot.loops.inter, 27);
+  EXPECT_EQ(snapshot.loops.inter_rejected, 1) << "the false one";
+  // Three more: 10 % more than at the last full EM, which runs again.
+  for (int i = 26; i < 29; ++i) ASSERT_TRUE(graph.addLoopClosure(loop(i, i)));
+  EXPECT_GT(estimateOf(graph.optimize()).alignment.log_likelihood_trace.size(), 1U);
+}
+
 TEST_F(Corridor, OneFalseClosureAloneNeverMakesATeamTransform) {
   TeamGraph graph("robot_a", BackendParams{});
   addKeyframes(graph, 0, kLength - 1);

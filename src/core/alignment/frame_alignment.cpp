@@ -229,6 +229,25 @@ class Em {
   double log_outlier_;
 };
 
+/// Throws std::invalid_argument for a covariance that is not positive definite.
+Prepared prepare(const std::vector<AlignmentCandidate>& candidates, const AlignmentParams& params) {
+  Prepared prepared;
+  for (const auto& c : candidates) {
+    prepared.implied.push_back(c.pose_a * c.measurement * c.pose_b.inverse());
+    Matrix6 sigma = c.covariance;
+    if (params.use_pose_uncertainty) sigma += c.covariance_a + c.covariance_b;
+    const Eigen::LLT<Matrix6> llt(sigma);
+    if (llt.info() != Eigen::Success || !sigma.allFinite()) {
+      throw std::invalid_argument("a candidate's covariance is not positive definite");
+    }
+    prepared.information.push_back(sigma.inverse());
+    prepared.sqrt_information.push_back(Eigen::LLT<Matrix6>(sigma.inverse()).matrixU());
+    prepared.log_normaliser.push_back(-0.5 *
+                                      (6.0 * std::log(2.0 * M_PI) + std::log(sigma.determinant())));
+  }
+  return prepared;
+}
+
 bool distinct(const Pose3& a, const Pose3& b) {
   const Pose3 d = a.inverse() * b;
   return d.translation().norm() > 1.0 || Eigen::AngleAxisd(d.linear()).angle() > 5.0 * M_PI / 180;
@@ -263,20 +282,7 @@ AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& ca
     return result;
   }
 
-  Prepared prepared;
-  for (const auto& c : candidates) {
-    prepared.implied.push_back(c.pose_a * c.measurement * c.pose_b.inverse());
-    Matrix6 sigma = c.covariance;
-    if (params.use_pose_uncertainty) sigma += c.covariance_a + c.covariance_b;
-    const Eigen::LLT<Matrix6> llt(sigma);
-    if (llt.info() != Eigen::Success || !sigma.allFinite()) {
-      throw std::invalid_argument("a candidate's covariance is not positive definite");
-    }
-    prepared.information.push_back(sigma.inverse());
-    prepared.sqrt_information.push_back(Eigen::LLT<Matrix6>(sigma.inverse()).matrixU());
-    prepared.log_normaliser.push_back(-0.5 *
-                                      (6.0 * std::log(2.0 * M_PI) + std::log(sigma.determinant())));
-  }
+  const Prepared prepared = prepare(candidates, params);
   const Em em(candidates, params, prepared);
 
   // Starts: the candidate nearest each k-means centre of the implied transforms, and the
@@ -367,6 +373,28 @@ AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& ca
                     std::to_string(runner_up) + " for another transform";
   } else {
     result.found = true;
+  }
+  return result;
+}
+
+AlignmentResult checkFrameTransform(const std::vector<AlignmentCandidate>& candidates,
+                                    const AlignmentParams& params, const AlignmentResult& found) {
+  validated(params);
+  AlignmentResult result = found;
+  const Prepared prepared = prepare(candidates, params);
+  const Em em(candidates, params, prepared);
+  result.log_likelihood = em.expectation(found.transform, &result.weights);
+  result.log_likelihood_trace = {result.log_likelihood};
+  result.inliers.assign(candidates.size(), false);
+  for (std::size_t k = 0; k < result.weights.size(); ++k) {
+    result.inliers[k] = result.weights[k] > 0.5;
+  }
+  result.inlier_count =
+      static_cast<int>(std::count(result.inliers.begin(), result.inliers.end(), true));
+  result.found = found.found && result.inlier_count >= params.min_inliers &&
+                 result.inlier_count >= result.runner_up_inliers + params.min_inlier_margin;
+  if (found.found && !result.found) {
+    result.reason = std::to_string(result.inlier_count) + " inliers of the transform found before";
   }
   return result;
 }

@@ -97,6 +97,17 @@ TeamGraph::LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
 
 bool TeamGraph::knows(const LoopClosureData& loop) const { return loop_keys_.count(keyOf(loop)); }
 
+std::optional<TeamGraph::Oriented> TeamGraph::oriented(const LoopClosureData& loop) const {
+  const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
+  const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
+  if (!outgoing && !incoming) return std::nullopt;
+  if (outgoing) {
+    return Oriented{loop.robot_to, ownIndex(loop.keyframe_from), loop.keyframe_to, loop.relative};
+  }
+  return Oriented{loop.robot_from, ownIndex(loop.keyframe_to), loop.keyframe_from,
+                  loop.relative.inverse()};
+}
+
 int TeamGraph::ownIndex(KeyframeId id) const {
   const auto it = index_.find(id);
   return it == index_.end() ? -1 : it->second;
@@ -154,12 +165,10 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
   std::vector<std::pair<int, int>> gated_out;
   std::vector<std::pair<std::string, LoopKey>> edge_loop;  // of each inter-robot edge, in order
   for (const auto& loop : loops_) {
-    const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
-    const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
-    if (!outgoing && !incoming) continue;
-    const std::string& peer = outgoing ? loop.robot_to : loop.robot_from;
-    const int own = ownIndex(outgoing ? loop.keyframe_from : loop.keyframe_to);
-    const auto other = peer_node.find({peer, outgoing ? loop.keyframe_to : loop.keyframe_from});
+    const auto inter = oriented(loop);
+    if (!inter) continue;
+    const auto& [peer, own, theirs, relative] = *inter;
+    const auto other = peer_node.find({peer, theirs});
     if (own < 0 || other == peer_node.end()) continue;
     ++snapshot.loops.inter;
     const LoopKey key = keyOf(loop);
@@ -170,7 +179,7 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
     PoseGraphEdge edge;
     edge.from = own;
     edge.to = other->second;
-    edge.measurement = outgoing ? loop.relative : loop.relative.inverse();
+    edge.measurement = relative;
     edge.information = loop.covariance.inverse();  // first order for the inverted direction
     edge.loop = true;
     graph.edges.push_back(edge);
@@ -255,12 +264,9 @@ std::map<std::string, TeamGraph::Candidates> TeamGraph::candidates() const {
   for (const auto& [peer, keyframes] : peers_) peer_covariances[peer] = peerDrift(peer);
   std::map<std::string, Candidates> candidates;
   for (const auto& loop : loops_) {
-    const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
-    const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
-    if (!outgoing && !incoming) continue;
-    const std::string& peer = outgoing ? loop.robot_to : loop.robot_from;
-    const int own = ownIndex(outgoing ? loop.keyframe_from : loop.keyframe_to);
-    const KeyframeId theirs = outgoing ? loop.keyframe_to : loop.keyframe_from;
+    const auto inter = oriented(loop);
+    if (!inter) continue;
+    const auto& [peer, own, theirs, relative] = *inter;
     const auto peer_keyframes = peers_.find(peer);
     if (own < 0 || peer_keyframes == peers_.end()) continue;
     const auto other = peer_keyframes->second.find(theirs);
@@ -269,7 +275,7 @@ std::map<std::string, TeamGraph::Candidates> TeamGraph::candidates() const {
     const auto i = static_cast<std::size_t>(own);
     c.pose_a = graph_.poses[i];
     c.pose_b = other->second;
-    c.measurement = outgoing ? loop.relative : loop.relative.inverse();
+    c.measurement = relative;
     c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
     c.covariance_a = inBodyFrame(odom_covariances_[i], odom_poses_[i].linear());
     c.covariance_b = inBodyFrame(peer_covariances.at(peer).at(theirs),
@@ -350,7 +356,17 @@ BackendSnapshot TeamGraph::optimize() {
     // Its share of what the EM has left (its best supported start runs whatever is left).
     em.max_time_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
                     static_cast<double>(peers_left--);
-    estimate.alignment = alignment::estimateFrameTransform(list, em);
+    // A joined teammate's transform is only re-checked (O(n)) until its closures grew by
+    // kEmRerunGrowth since the last full EM, or it stops holding.
+    const auto last = last_em_.find(peer);
+    if (joined_.count(peer) && last != last_em_.end() &&
+        static_cast<double>(list.size()) < (1.0 + kEmRerunGrowth) * last->second.first) {
+      estimate.alignment = alignment::checkFrameTransform(list, em, last->second.second);
+    }
+    if (!estimate.alignment.found) {
+      estimate.alignment = alignment::estimateFrameTransform(list, em);
+      last_em_[peer] = {list.size(), estimate.alignment};
+    }
     const alignment::AlignmentResult& found = estimate.alignment;
     auto joined = joined_.find(peer);
     if (joined == joined_.end() && found.found && params_.team_graph) {

@@ -79,4 +79,10 @@ struct AlignmentResult {
 AlignmentResult estimateFrameTransform(const std::vector<AlignmentCandidate>& candidates,
                                        const AlignmentParams& params);
 
+/// The transform of an earlier estimate, its inliers counted again among `candidates` (its
+/// E-step alone, O(n), no search): found while it still has min_inliers and its margin over the
+/// earlier runner-up. For re-checking a known transform between full estimates.
+AlignmentResult checkFrameTransform(const std::vector<AlignmentCandidate>& candidates,
+                                    const AlignmentParams& params, const AlignmentResult& found);
+
 }  // namespace ccir_mapping::core::alignment

@@ -114,6 +114,9 @@ class TeamGraph {
   /// way a notice says which.
   BackendSnapshot optimize();
   static constexpr double kEmTimeShare = 0.4;
+  /// A joined teammate's EM runs again in full once its closures grew by this share; between,
+  /// the last transform is re-checked against the new ones.
+  static constexpr double kEmRerunGrowth = 0.1;
 
   /// The whole graph of the last optimisation for inspection (writeG2o): own and teammates'
   /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
@@ -163,6 +166,16 @@ class TeamGraph {
 
   /// Index of own keyframe `id` in the graph, or -1.
   int ownIndex(KeyframeId id) const;
+  /// An inter-robot closure seen from this robot: the teammate, the own keyframe's index (-1:
+  /// unknown), the teammate's keyframe, and its pose in the own keyframe's frame.
+  struct Oriented {
+    std::string peer;
+    int own;
+    KeyframeId theirs;
+    Pose3 relative;
+  };
+  /// nullopt for a closure within one robot.
+  std::optional<Oriented> oriented(const backend::LoopClosureData& loop) const;
   /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
   /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_), keeps its poses
   /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
@@ -183,6 +196,8 @@ class TeamGraph {
   /// switches kept (the last solve), per joined teammate.
   std::map<std::string, std::set<LoopKey>> gate_;
   std::map<std::string, std::set<LoopKey>> kept_;
+  /// Per teammate: its closures at the last full EM, and that EM's result.
+  std::map<std::string, std::pair<std::size_t, alignment::AlignmentResult>> last_em_;
 };
 
 }  // namespace ccir_mapping::core::team
