@@ -485,6 +485,16 @@ TEST(G2o, MultiRobotGraphsAreReadByTheirRobotKeyedIdsAndTakeInterRobotOutliers) 
   writeG2o(graph, path.string());
   EXPECT_EQ(readG2o(path.string()).keys.size(), 24U) << "written back with the same ids";
 
+  {
+    std::ofstream out(path);
+    out << "VERTEX_SE2 0 0 0 0\nEDGE_SE2 -1 0 1 0 0 1 0 0 1 0 1\n";
+  }
+  try {
+    readG2o(path.string());
+    ADD_FAILURE() << "a negative id was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(":2: negative vertex id"), std::string::npos) << e.what();
+  }
   // A keyed graph's poses need vertices; plain and keyed ids do not mix.
   {
     std::ofstream out(path);

@@ -45,6 +45,13 @@ Information rotationVectorToQuaternion(Information info) {
   return info;
 }
 
+/// A vertex id: unsigned 64 bits (a robot-keyed one uses all of them). Throws for a negative
+/// one, which the unsigned read would wrap around silently.
+bool readId(std::istream& in, std::uint64_t* id) {
+  if ((in >> std::ws).peek() == '-') throw std::invalid_argument("negative vertex id");
+  return static_cast<bool>(in >> *id);
+}
+
 Information readUpperTriangle(std::istream& in, int n) {
   Information info(n, n);
   for (int r = 0; r < n; ++r) {
@@ -98,11 +105,12 @@ PoseGraph readG2o(const std::string& path) {
       std::uint64_t id = 0;
       if (tag == "VERTEX_SE2") {
         double x, y, theta;
-        if (!(in >> id >> x >> y >> theta)) throw std::invalid_argument("bad VERTEX_SE2");
+        if (!readId(in, &id) || !(in >> x >> y >> theta))
+          throw std::invalid_argument("bad VERTEX_SE2");
         vertices[id] = planar(x, y, theta);
       } else if (tag == "VERTEX_SE3:QUAT") {
         double v[7];
-        if (!(in >> id >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6])) {
+        if (!readId(in, &id) || !(in >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6])) {
           throw std::invalid_argument("bad VERTEX_SE3:QUAT");
         }
         vertices[id] = spatial(v[0], v[1], v[2], v[3], v[4], v[5], v[6]);
@@ -110,7 +118,7 @@ PoseGraph readG2o(const std::string& path) {
         RawEdge raw;
         PoseGraphEdge& edge = raw.edge;
         std::uint64_t switch_id = 0;
-        if (!(in >> raw.from >> raw.to) || raw.from == raw.to ||
+        if (!readId(in, &raw.from) || !readId(in, &raw.to) || raw.from == raw.to ||
             (switchable && !(in >> switch_id))) {
           throw std::invalid_argument("bad edge ids");
         }
