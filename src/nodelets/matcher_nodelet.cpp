@@ -60,7 +60,7 @@ class MatcherNodelet final : public PipelineNodelet {
     return measured("describe", [&] {
       return keyframe.robot == robot()
                  ? matcher_->describeOwn(keyframe.id, stamp, cloud, *pose)
-                 : matcher_->describe(keyframe.id, stamp, cloud, core::upInFrame(*pose));
+                 : matcher_->describeTeammate(keyframe.id, stamp, cloud, *pose);
     });
   }
 
@@ -68,12 +68,13 @@ class MatcherNodelet final : public PipelineNodelet {
   /// the candidates were found for (own or a teammate's); the candidates' places are own
   /// keyframes, or teammates' kept scans when they name a robot.
   void publishBest(const std::vector<pr::MatchCandidate>& candidates,
-                   const std::string& query_robot, core::KeyframeId query, const ros::Time& stamp) {
+                   const std::string& query_robot, core::KeyframeId query, const ros::Time& stamp,
+                   const std::optional<core::Pose3>& query_odom_pose = {}) {
     verified_ += candidates.size();
     const pr::MatchCandidate* best = pr::bestAccepted(candidates);
     if (!best) return;
-    auto loop = boost::make_shared<LoopClosure>(
-        conversions::toLoopClosureMsg(matcher_->loopClosure(robot(), *best, query_robot, query)));
+    auto loop = boost::make_shared<LoopClosure>(conversions::toLoopClosureMsg(
+        matcher_->loopClosure(robot(), *best, query_robot, query, query_odom_pose)));
     loop->header.stamp = stamp;
     count(loop->robot_to == robot() ? "out loop_closures (own)" : "out loop_closures (teammates)");
     publish(topics::kLoopClosures, boost::shared_ptr<const LoopClosure>(loop));
@@ -125,7 +126,7 @@ class MatcherNodelet final : public PipelineNodelet {
     auto described = describe(scan, false, "teammate_scans");
     if (!described) return;
     publishBest(measured("match", [&] { return matcher_->matchTeammate(*described); }), scan.robot,
-                scan.id, scan.header.stamp);
+                scan.id, scan.header.stamp, described->odom_pose);
     matcher_->keepTeammateScan(scan.robot, std::move(*described));
   }
 

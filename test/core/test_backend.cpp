@@ -114,23 +114,31 @@ TEST(LoopClosure, ProblemsAreNamedAndAGoodOneHasNone) {
   EXPECT_FALSE(loopClosureProblem(bad));
   bad.odom_pose_from->translation().y() = INFINITY;
   EXPECT_EQ(loopClosureProblem(bad), "odom_pose_from not finite");
+  bad.odom_pose_from = Pose3::Identity();
+  bad.odom_pose_to = Pose3::Identity();
+  bad.odom_pose_to->translation().x() = NAN;
+  EXPECT_EQ(loopClosureProblem(bad), "odom_pose_to not finite");
 }
 
-TEST(LoopClosure, EachRobotUsesWhatInvolvesItAndForwardsOnlyItsOwnInterRobotClosures) {
+TEST(LoopClosure, EachRobotUsesTheTeamsInterRobotClosuresAndForwardsOnlyThoseItFound) {
   // Found by robot_a's Matcher: its own loop stays, one with a teammate also goes out.
   EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_a", "robot_a")), LoopRoute::kUse);
   EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_a", "robot_b")), LoopRoute::kUseAndForward);
   EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_b", "robot_a")), LoopRoute::kUseAndForward);
   EXPECT_EQ(routeOwnLoop("robot_a", closure("robot_b", "robot_c")), LoopRoute::kDrop);
-  // Sent by a teammate: only b -> a with b's keyframe pose is a's; a closure between b and c,
-  // or a's own one coming back, is not a's business; without the pose it cannot be used.
+  // Sent by a teammate, with its keyframe's pose: b -> a, and b -> c (a's team graph holds the
+  // whole team's); a's own one coming back is ignored; without the pose, or within b (never
+  // shared), it cannot be used.
   auto from_b = closure("robot_b", "robot_a");
   EXPECT_EQ(routeTeammateLoop("robot_a", from_b), LoopRoute::kDrop);
   from_b.odom_pose_from = Pose3::Identity();
   EXPECT_EQ(routeTeammateLoop("robot_a", from_b), LoopRoute::kUse);
   auto between_others = closure("robot_b", "robot_c");
   between_others.odom_pose_from = Pose3::Identity();
-  EXPECT_EQ(routeTeammateLoop("robot_a", between_others), LoopRoute::kIgnore);
+  EXPECT_EQ(routeTeammateLoop("robot_a", between_others), LoopRoute::kUse);
+  auto within_b = closure("robot_b", "robot_b");
+  within_b.odom_pose_from = Pose3::Identity();
+  EXPECT_EQ(routeTeammateLoop("robot_a", within_b), LoopRoute::kDrop);
   auto echo = closure("robot_a", "robot_b");
   echo.odom_pose_from = Pose3::Identity();
   EXPECT_EQ(routeTeammateLoop("robot_a", echo), LoopRoute::kIgnore);

@@ -148,6 +148,12 @@ TEST_F(PlaceMatcherTest, OwnKeyframesCarryTheirOdometryAndPathLength) {
   ASSERT_TRUE(k.odom_pose);
   EXPECT_TRUE(k.odom_pose->isApprox(pose));
   EXPECT_DOUBLE_EQ(k.path_m, 3.5);
+  // A teammate's carries its odometry pose, not this robot's path.
+  const DescribedKeyframe t = matcher.describeTeammate(9, fromSeconds(2.0), s.cloud, pose);
+  ASSERT_TRUE(t.odom_pose);
+  EXPECT_TRUE(t.odom_pose->isApprox(pose));
+  EXPECT_DOUBLE_EQ(t.path_m, 0.0);
+  EXPECT_EQ(t.words, k.words);
 }
 
 TEST_F(PlaceMatcherTest, ATeammatesWordSetMustShareTheVocabularyAndBeWellFormed) {
@@ -182,12 +188,17 @@ TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
     ASSERT_NE(best, nullptr);
     EXPECT_EQ(best->keyframe, 1U);
     EXPECT_EQ(matcher.places(), 2U);
-    // From the own place to the teammate's keyframe.
-    const auto loop = matcher.loopClosure("robot_a", *best, "robot_b", 7);
+    // From the own place to the teammate's keyframe, with its odometry pose for a third robot.
+    auto loop = matcher.loopClosure("robot_a", *best, "robot_b", 7);
     EXPECT_EQ(loop.robot_from, "robot_a");
     EXPECT_EQ(loop.keyframe_from, 1U);
     EXPECT_EQ(loop.robot_to, "robot_b");
     EXPECT_EQ(loop.keyframe_to, 7U);
+    EXPECT_FALSE(loop.odom_pose_to);
+    loop = matcher.loopClosure("robot_a", *best, "robot_b", 7,
+                               Pose3(Eigen::Translation3d(0.0, 3.0, 0.0)));
+    ASSERT_TRUE(loop.odom_pose_to);
+    EXPECT_DOUBLE_EQ(loop.odom_pose_to->translation().y(), 3.0);
     EXPECT_TRUE(bestAccepted(matcher.matchTeammate(keyframe(matcher, 8, 1.0, 2))) == nullptr);
   }
 }
@@ -196,7 +207,8 @@ TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
   PlaceMatcher matcher(MatcherParams{}, model_);
   matcher.addOwn(keyframe(matcher, 0, 0.0, 0));
   // robot_b scanned place 1 before this robot got there: no match yet, the scan is kept.
-  const DescribedKeyframe theirs = keyframe(matcher, 42, 1.0, 1);
+  DescribedKeyframe theirs = keyframe(matcher, 42, 1.0, 1);
+  theirs.odom_pose = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));  // in robot_b's frame
   EXPECT_EQ(bestAccepted(matcher.matchTeammate(theirs)), nullptr);
   matcher.keepTeammateScan("robot_b", theirs);
   EXPECT_EQ(matcher.keptScans(), 1U);
@@ -214,6 +226,8 @@ TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
   EXPECT_EQ(loop.keyframe_from, 1U);
   EXPECT_EQ(loop.robot_to, "robot_b");
   EXPECT_EQ(loop.keyframe_to, 42U);
+  ASSERT_TRUE(loop.odom_pose_to) << "the kept scan's, for a third robot";
+  EXPECT_DOUBLE_EQ(loop.odom_pose_to->translation().x(), -2.0);
   auto placed = keyframe(matcher, 1, 2.0, 1);
   placed.odom_pose = Pose3(Eigen::Translation3d(4.0, 0.0, 0.0));
   matcher.addOwn(placed);

@@ -74,10 +74,6 @@ TEST(TeamGraph, FindsTheTeamTransformFromLoopsInBothDirections) {
   EXPECT_FALSE(graph.addLoopClosure(again));
   again.keyframe_to += 1000;
   EXPECT_FALSE(graph.knows(again));
-  LoopClosureData strangers;
-  strangers.robot_from = "robot_b";
-  strangers.robot_to = "robot_c";
-  EXPECT_FALSE(graph.addLoopClosure(strangers));
 
   const BackendSnapshot snapshot = graph.optimize();
   ASSERT_EQ(snapshot.poses.size(), 80U);
@@ -416,6 +412,138 @@ TEST_F(Corridor, WithoutTheTeamGraphTheTeammateStaysOutAndIsPlacedByTheEmAlone) 
   EXPECT_EQ(snapshot.loop_lines.size(), 15U) << "the EM's inliers";
 }
 
+// Robot a meets robots b and c where the three start; b and c then drive on together, 0.5 m
+// on either side of a's line, their odometries drifting apart (b turns 0.1 deg per metre too far
+// left, c too far right), and meet each other again at the far end: closures robot b found and
+// shared with its teammates. In robot a's graph they hold b and c together:
+//
+//   b:  100-101- ... -114--- ... ---145- ... -159      turns 0.1 deg/m too far left
+//       :    :         :              :          :
+//   a:  0----1-- ... --14                              exact odometry
+//       :    :         :              :          :
+//   c:  200-201- ... -214--- ... ---245- ... -259      turns 0.1 deg/m too far right
+//       \_ a meets b, a meets c _/    \_ b meets c _/
+//
+// Each closure is exact, with 1 cm, 0.06 deg covariance.
+class ThreeRobots : public ::testing::Test {
+ protected:
+  static constexpr int kLength = 60;
+  static constexpr int kFar = 45;  // where b meets c again
+
+  ThreeRobots() {
+    frame_["robot_b"] =
+        Pose3(Eigen::Translation3d(5, 2, 0)) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
+    frame_["robot_c"] =
+        Pose3(Eigen::Translation3d(-4, 1, 0)) * Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitZ());
+    for (int i = 0; i < kLength; ++i) {
+      truth_["robot_a"].push_back(Pose3(Eigen::Translation3d(i, 0, 0)));
+      truth_["robot_b"].push_back(Pose3(Eigen::Translation3d(i, 0.5, 0)));  // in a's frame
+      truth_["robot_c"].push_back(Pose3(Eigen::Translation3d(i, -0.5, 0)));
+      for (const auto& [robot, turn_deg] :
+           {std::pair{"robot_b", 0.1}, std::pair{"robot_c", -0.1}}) {
+        const auto& t = truth_[robot];
+        const Pose3 in_own = frame_[robot].inverse() * t[i];
+        auto& odom = odom_[robot];
+        odom.push_back(
+            i == 0
+                ? in_own
+                : odom.back() * Eigen::AngleAxisd(turn_deg * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+                      (frame_[robot].inverse() * t[i - 1]).inverse() * in_own);
+      }
+    }
+  }
+  static KeyframeId idOf(const std::string& robot, int i) {
+    return static_cast<KeyframeId>(robot == "robot_a" ? i : robot == "robot_b" ? 100 + i : 200 + i);
+  }
+  void addKeyframes(TeamGraph& graph) const {
+    for (int i = 0; i < kLength; ++i) {
+      ASSERT_TRUE(graph.addKeyframe(idOf("robot_a", i), fromSeconds(i), truth_.at("robot_a")[i]));
+      for (const char* peer : {"robot_b", "robot_c"}) {
+        ASSERT_TRUE(graph.addPeerKeyframe(peer, idOf(peer, i), odom_.at(peer)[i]));
+      }
+    }
+  }
+  /// `from`'s keyframe i sees `to`'s keyframe j (truly where the measurement says when i == j).
+  LoopClosureData loop(const std::string& from, const std::string& to, int i, int j) const {
+    LoopClosureData l;
+    l.robot_from = from;
+    l.keyframe_from = idOf(from, i);
+    l.robot_to = to;
+    l.keyframe_to = idOf(to, j);
+    l.relative = truth_.at(from)[i].inverse() * truth_.at(to)[i];
+    l.covariance = Matrix6::Identity() * 1e-4;
+    return l;
+  }
+  void meet(TeamGraph& graph, const std::string& from, const std::string& to, int first,
+            int last) const {
+    for (int i = first; i <= last; ++i) ASSERT_TRUE(graph.addLoopClosure(loop(from, to, i, i)));
+  }
+  /// Mean distance between b's and c's keyframes `first`..`last` in the graph (truly 1 m).
+  static double gapOf(const BackendSnapshot& snapshot, int first, int last) {
+    std::map<KeyframeId, Pose3> poses;
+    for (const auto& peer : snapshot.peer_keyframes) {
+      for (std::size_t k = 0; k < peer.ids.size(); ++k) poses[peer.ids[k]] = peer.poses[k];
+    }
+    double sum = 0.0;
+    for (int i = first; i <= last; ++i) {
+      EXPECT_TRUE(poses.count(idOf("robot_b", i)) && poses.count(idOf("robot_c", i)));
+      sum += (poses[idOf("robot_b", i)].translation() - poses[idOf("robot_c", i)].translation())
+                 .norm();
+    }
+    return sum / (last - first + 1);
+  }
+
+  std::map<std::string, Pose3> frame_;                      // teammates' frames in a's
+  std::map<std::string, std::vector<Pose3>> truth_, odom_;  // in a's frame; in their own
+};
+
+TEST_F(ThreeRobots, ClosuresBetweenTwoTeammatesHoldThemTogetherOnceBothAreInTheGraph) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph);
+  meet(graph, "robot_a", "robot_b", 0, 14);
+  meet(graph, "robot_b", "robot_c", kFar, kLength - 1);  // found by b, shared
+  const BackendSnapshot b_only = graph.optimize();
+  ASSERT_EQ(b_only.peer_keyframes.size(), 1U) << "c has no transform yet";
+  EXPECT_EQ(b_only.loops.inter, 15) << "b's closures with c wait for c";
+
+  meet(graph, "robot_c", "robot_a", 0, 14);  // found by c: the other direction
+  const BackendSnapshot both = graph.optimize();
+  ASSERT_EQ(both.peer_keyframes.size(), 2U);
+  EXPECT_EQ(both.loops.inter, 45);
+  EXPECT_EQ(both.loops.inter_rejected, 0);
+  EXPECT_NEAR(gapOf(both, kFar, kLength - 1), 1.0, 0.05) << "b and c where they met";
+  EXPECT_NEAR(gapOf(both, 0, 14), 1.0, 0.05);
+
+  // Without the closures between b and c, their drifts part them at the far end.
+  TeamGraph apart("robot_a", BackendParams{});
+  addKeyframes(apart);
+  meet(apart, "robot_a", "robot_b", 0, 14);
+  meet(apart, "robot_c", "robot_a", 0, 14);
+  EXPECT_GT(gapOf(apart.optimize(), kFar, kLength - 1), 2.0);
+}
+
+TEST_F(ThreeRobots, AFalseClosureBetweenTwoTeammatesIsGatedOut) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph);
+  meet(graph, "robot_a", "robot_b", 0, 14);
+  meet(graph, "robot_c", "robot_a", 0, 14);
+  meet(graph, "robot_b", "robot_c", kFar, kLength - 1);
+  // b's keyframe 30 "sees" c's keyframe 22 where c's keyframe 30 is (the mine repeats).
+  ASSERT_TRUE(graph.addLoopClosure(loop("robot_b", "robot_c", 30, 22)));
+  const BackendSnapshot snapshot = graph.optimize();
+  EXPECT_EQ(snapshot.loops.inter, 46);
+  EXPECT_EQ(snapshot.loops.inter_rejected, 1);
+  EXPECT_NEAR(gapOf(snapshot, kFar, kLength - 1), 1.0, 0.05);
+  EXPECT_NEAR(gapOf(snapshot, 22, 30), 1.0, 0.5) << "c's keyframe 22 not pulled 8 m along";
+}
+
+TEST_F(ThreeRobots, ATeammatesOwnClosureIsRefused) {
+  TeamGraph graph("robot_a", BackendParams{});
+  EXPECT_FALSE(graph.addLoopClosure(loop("robot_b", "robot_b", 40, 10))) << "never shared";
+  EXPECT_TRUE(graph.addLoopClosure(loop("robot_b", "robot_c", 40, 40)));
+  EXPECT_FALSE(graph.addLoopClosure(loop("robot_c", "robot_b", 40, 40))) << "counted once";
+}
+
 TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {
   // 30 keyframes 1 m apart around a 10 m x 5 m rectangle; then a loop from the last to the
   // first.
@@ -558,9 +686,12 @@ TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed
   sent.robot_from = "robot_b";
   sent.robot_to = "robot_a";
   worker.addTeammateLoop(sent);  // no odom_pose_from
-  worker.addTeammateLoop(others);
+  worker.addTeammateLoop(loop);  // robot_a's own coming back
   sent.odom_pose_from = Pose3::Identity();
   worker.addTeammateLoop(sent);  // used: no refusal
+  // Between two teammates (robot_c found it): used, both keyframes placed with their poses.
+  others.odom_pose_from = others.odom_pose_to = Pose3::Identity();
+  worker.addTeammateLoop(others);
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_EQ(refusals.size(), 4U);
   EXPECT_EQ(refusals[0].first, Worker::Refusal::kLoopClosure);
@@ -610,7 +741,7 @@ TEST(TeamGraphWorker, RefusalsAreDroppedOnTheirTopicsFlowOrOnlyCountedWhenNothin
       {R::kPeerKeyframe, "teammate_scans", true},
       {R::kLoopClosure, "loop_closures", true},
       {R::kTeammateLoopClosure, "inbox/loop_closures", true},
-      {R::kIgnoredLoopClosure, "ignored inbox/loop_closures (not with this robot)", false},
+      {R::kIgnoredLoopClosure, "ignored inbox/loop_closures (this robot's own)", false},
       {R::kDuplicateLoopClosure, "duplicate loop_closures", false}};
   for (const auto& [why, flow, dropped] : expected) {
     EXPECT_EQ(Worker::reportOf(why).flow, flow);

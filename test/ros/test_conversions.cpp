@@ -398,6 +398,7 @@ TEST(Conversions, LoopClosureRoundTrip) {
   loop.relative = somePose(2.0, 0.3);
   loop.covariance = someCovariance();
   loop.odom_pose_from = somePose(-4.0, 1.1);
+  loop.odom_pose_to = somePose(7.0, -0.4);
   loop.match_score = 0.75;
   loop.fitness_m2 = 0.04;
   loop.inliers = 31;
@@ -416,10 +417,14 @@ TEST(Conversions, LoopClosureRoundTrip) {
   EXPECT_EQ(back.covariance, loop.covariance);
   ASSERT_TRUE(back.odom_pose_from);
   EXPECT_TRUE(back.odom_pose_from->isApprox(*loop.odom_pose_from, 1e-12));
-  // Without odom_pose_from the message's pose stays unset (a zero quaternion): none comes back.
+  ASSERT_TRUE(back.odom_pose_to);
+  EXPECT_TRUE(back.odom_pose_to->isApprox(*loop.odom_pose_to, 1e-12));
+  // Without odometry poses the message's stay unset (a zero quaternion): none comes back.
   loop.odom_pose_from.reset();
+  loop.odom_pose_to.reset();
   ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
   EXPECT_FALSE(back.odom_pose_from);
+  EXPECT_FALSE(back.odom_pose_to);
   // A relative pose that is not finite is refused.
   LoopClosure broken = toLoopClosureMsg(loop);
   broken.relative_pose.position.z = std::numeric_limits<double>::quiet_NaN();

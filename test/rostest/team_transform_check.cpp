@@ -63,7 +63,7 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
               dropped_loops = std::stod(entry.value);
             if (entry.key == "dropped inbox/loop_closures messages")
               dropped_teammate_loops = std::stod(entry.value);
-            if (entry.key == "ignored inbox/loop_closures (not with this robot) messages")
+            if (entry.key == "ignored inbox/loop_closures (this robot's own) messages")
               ignored_teammate_loops = std::stod(entry.value);
           }
         }
@@ -138,20 +138,21 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
       teammate_loops.publish(loop);
     }
   }
-  // A teammate's closure with a third robot is not robot_a's; one without its keyframe's pose,
-  // or naming no robot, cannot be placed.
-  auto strangers = boost::make_shared<LoopClosure>();
-  strangers->robot_from = "robot_b";
-  strangers->robot_to = "robot_c";
-  strangers->relative_pose.orientation.w = 1.0;
-  strangers->odom_pose_from.orientation.w = 1.0;
-  for (int d = 0; d < 6; ++d) strangers->covariance[d * 7] = 0.01;
-  teammate_loops.publish(strangers);
-  auto unplaced = boost::make_shared<LoopClosure>(*strangers);
+  // Robot_a's own closure coming back is ignored; a teammate's without its keyframe's pose, or
+  // naming no robot, cannot be placed.
+  auto echo = boost::make_shared<LoopClosure>();
+  echo->robot_from = "robot_a";
+  echo->robot_to = "robot_b";
+  echo->relative_pose.orientation.w = 1.0;
+  echo->odom_pose_from.orientation.w = 1.0;
+  for (int d = 0; d < 6; ++d) echo->covariance[d * 7] = 0.01;
+  teammate_loops.publish(echo);
+  auto unplaced = boost::make_shared<LoopClosure>(*echo);
+  unplaced->robot_from = "robot_b";
   unplaced->robot_to = "robot_a";
   unplaced->odom_pose_from.orientation.w = 0.0;  // not a rotation
   teammate_loops.publish(unplaced);
-  auto nameless = boost::make_shared<LoopClosure>(*strangers);
+  auto nameless = boost::make_shared<LoopClosure>(*echo);
   nameless->robot_from = "";
   nameless->robot_to = "robot_a";
   teammate_loops.publish(nameless);

@@ -65,8 +65,8 @@ nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
                          const std::vector<core::Pose3>& poses, const std::string& frame);
 
 /// A loop closure's keyframes, relative pose, covariance, (when it is a valid pose: an unset
-/// one has a zero quaternion) odom_pose_from and match figures; false when the relative pose is
-/// not finite (core::backend::loopClosureProblem checks the rest).
+/// one has a zero quaternion) odom_pose_from and odom_pose_to, and match figures; false when the
+/// relative pose is not finite (core::backend::loopClosureProblem checks the rest).
 bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out);
 /// The same fields of a LoopClosure message (its header is the finder's to set).
 LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop);

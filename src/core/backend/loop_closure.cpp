@@ -15,6 +15,7 @@ std::optional<std::string> loopClosureProblem(const LoopClosureData& loop) {
   if (loop.odom_pose_from && !isValidPose(*loop.odom_pose_from)) {
     return "odom_pose_from not finite";
   }
+  if (loop.odom_pose_to && !isValidPose(*loop.odom_pose_to)) return "odom_pose_to not finite";
   return std::nullopt;
 }
 
@@ -24,8 +25,9 @@ LoopRoute routeOwnLoop(const std::string& self, const LoopClosureData& loop) {
 }
 
 LoopRoute routeTeammateLoop(const std::string& self, const LoopClosureData& loop) {
-  if (loop.robot_to != self || loop.robot_from == self) return LoopRoute::kIgnore;
-  return loop.odom_pose_from ? LoopRoute::kUse : LoopRoute::kDrop;
+  if (loop.robot_from == self) return LoopRoute::kIgnore;
+  const bool teammates_own = loop.robot_to == loop.robot_from;  // never shared
+  return loop.odom_pose_from && !teammates_own ? LoopRoute::kUse : LoopRoute::kDrop;
 }
 
 }  // namespace ccir_mapping::core::backend

@@ -73,10 +73,9 @@ PlaceMatcher::~PlaceMatcher() = default;
 std::size_t PlaceMatcher::places() const { return own_->places.size(); }
 std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
 
-backend::LoopClosureData PlaceMatcher::loopClosure(const std::string& self,
-                                                   const MatchCandidate& match,
-                                                   const std::string& query_robot,
-                                                   KeyframeId query) const {
+backend::LoopClosureData PlaceMatcher::loopClosure(
+    const std::string& self, const MatchCandidate& match, const std::string& query_robot,
+    KeyframeId query, const std::optional<Pose3>& query_odom_pose) const {
   // An own query meeting a teammate's kept scan is "from"; otherwise the place is.
   const bool own_query_meets_teammate = query_robot == self && !match.robot.empty();
   backend::LoopClosureData loop;
@@ -87,6 +86,12 @@ backend::LoopClosureData PlaceMatcher::loopClosure(const std::string& self,
   loop.relative = match.verification.relative;
   loop.covariance = match.verification.covariance;
   loop.odom_pose_from = placeOdomPose(loop.keyframe_from);
+  if (own_query_meets_teammate) {
+    const auto kept = kept_->index_of.find({match.robot, match.keyframe});
+    if (kept != kept_->index_of.end()) loop.odom_pose_to = kept_->places[kept->second].odom_pose;
+  } else if (loop.robot_to != self) {
+    loop.odom_pose_to = query_odom_pose;
+  }
   loop.match_score = match.score;
   loop.fitness_m2 = match.verification.fitness_m2;
   loop.inliers = match.verification.inliers;
@@ -123,6 +128,14 @@ DescribedKeyframe PlaceMatcher::describeOwn(KeyframeId id, Stamp stamp,
   DescribedKeyframe k = describe(id, stamp, cloud, upInFrame(odom_pose));
   k.odom_pose = odom_pose;
   k.path_m = path_m_;
+  return k;
+}
+
+DescribedKeyframe PlaceMatcher::describeTeammate(KeyframeId id, Stamp stamp,
+                                                 const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                                                 const Pose3& odom_pose) const {
+  DescribedKeyframe k = describe(id, stamp, cloud, upInFrame(odom_pose));
+  k.odom_pose = odom_pose;
   return k;
 }
 

@@ -77,7 +77,8 @@ bool TeamGraph::addPeerKeyframe(const std::string& robot, KeyframeId id, const P
 
 bool TeamGraph::addLoopClosure(const LoopClosureData& loop) {
   if (!isValidPose(loop.relative) || !loop.covariance.allFinite()) return false;
-  if (loop.robot_from != robot_ && loop.robot_to != robot_) return false;
+  const bool own = loop.robot_from == robot_ || loop.robot_to == robot_;
+  if (!own && loop.robot_from == loop.robot_to) return false;  // a teammate's own: never shared
   if (loop.robot_from == robot_ && loop.robot_to == robot_ &&
       loop.keyframe_from == loop.keyframe_to) {
     return false;
@@ -98,13 +99,15 @@ TeamGraph::LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
 bool TeamGraph::knows(const LoopClosureData& loop) const { return loop_keys_.count(keyOf(loop)); }
 
 std::optional<TeamGraph::Oriented> TeamGraph::oriented(const LoopClosureData& loop) const {
-  const bool outgoing = loop.robot_from == robot_ && loop.robot_to != robot_;
-  const bool incoming = loop.robot_to == robot_ && loop.robot_from != robot_;
-  if (!outgoing && !incoming) return std::nullopt;
-  if (outgoing) {
-    return Oriented{loop.robot_to, ownIndex(loop.keyframe_from), loop.keyframe_to, loop.relative};
+  if (loop.robot_from == loop.robot_to) return std::nullopt;
+  const bool own = loop.robot_from == robot_ || loop.robot_to == robot_;
+  if (own ? loop.robot_from == robot_ : loop.robot_from < loop.robot_to) {
+    return Oriented{
+        {loop.robot_from, loop.robot_to}, loop.keyframe_from, loop.keyframe_to, loop.relative};
   }
-  return Oriented{loop.robot_from, ownIndex(loop.keyframe_to), loop.keyframe_from,
+  return Oriented{{loop.robot_to, loop.robot_from},
+                  loop.keyframe_to,
+                  loop.keyframe_from,
                   loop.relative.inverse()};
 }
 
@@ -161,29 +164,36 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
       node_keyframe.emplace_back(peer, id);
     }
   }
-  // Inter-robot loops with joined teammates: in the graph when gated in, else reported rejected.
+  // Inter-robot loops whose keyframes are both in the graph (own and joined teammates'): in it
+  // when gated in, else reported rejected.
+  const auto node_of = [&](const std::string& robot, KeyframeId id) {
+    if (robot == robot_) return ownIndex(id);
+    const auto it = peer_node.find({robot, id});
+    return it == peer_node.end() ? -1 : it->second;
+  };
   std::vector<std::pair<int, int>> gated_out;
-  std::vector<std::pair<std::string, LoopKey>> edge_loop;  // of each inter-robot edge, in order
+  std::vector<std::pair<Link, LoopKey>> edge_loop;  // of each inter-robot edge, in order
   for (const auto& loop : loops_) {
     const auto inter = oriented(loop);
     if (!inter) continue;
-    const auto& [peer, own, theirs, relative] = *inter;
-    const auto other = peer_node.find({peer, theirs});
-    if (own < 0 || other == peer_node.end()) continue;
+    const auto& [link, first, second, relative] = *inter;
+    const int from = node_of(link.first, first);
+    const int to = node_of(link.second, second);
+    if (from < 0 || to < 0) continue;
     ++snapshot.loops.inter;
     const LoopKey key = keyOf(loop);
-    if (!gate_[peer].count(key) && !kept_[peer].count(key)) {
-      gated_out.emplace_back(own, other->second);
+    if (!gate_[link].count(key) && !kept_[link].count(key)) {
+      gated_out.emplace_back(from, to);
       continue;
     }
     PoseGraphEdge edge;
-    edge.from = own;
-    edge.to = other->second;
+    edge.from = from;
+    edge.to = to;
     edge.measurement = relative;
     edge.information = loop.covariance.inverse();  // first order for the inverted direction
     edge.loop = true;
     graph.edges.push_back(edge);
-    edge_loop.emplace_back(peer, key);
+    edge_loop.emplace_back(link, key);
   }
 
   kept_.clear();
@@ -201,8 +211,8 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
     const auto to = static_cast<std::size_t>(e.to);
     const bool accepted = result.inliers[k];
     if (to >= own_count) {
-      const auto& [peer, key] = edge_loop[inter++];
-      if (accepted) kept_[peer].insert(key);
+      const auto& [link, key] = edge_loop[inter++];
+      if (accepted) kept_[link].insert(key);
       snapshot.loops.inter_rejected += !accepted;
     } else {
       snapshot.loops.intra_rejected += !accepted;
@@ -210,11 +220,11 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
     snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
                                    graph.poses[to].translation(), accepted, to >= own_count});
   }
-  for (const auto& [own, other] : gated_out) {
+  for (const auto& [from, to] : gated_out) {
     ++snapshot.loops.inter_rejected;
-    snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(own)].translation(),
-                                   graph.poses[static_cast<std::size_t>(other)].translation(),
-                                   false, true});
+    snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(from)].translation(),
+                                   graph.poses[static_cast<std::size_t>(to)].translation(), false,
+                                   true});
   }
   last_weights_ = result.weights;
   last_graph_ = std::move(graph);
@@ -255,33 +265,48 @@ PoseGraph TeamGraph::exportGraph(std::vector<double>* switch_values,
   return out;
 }
 
-std::map<std::string, TeamGraph::Candidates> TeamGraph::candidates() const {
-  // Inter-robot loops, oriented from this robot to the peer, against the optimised own poses and
-  // the teammate's own; each with the drift of both keyframes since their robots' starts (the
-  // peer's from its keyframes' poses, with this robot's odometry model), so that a true loop
-  // seen after long drift still agrees and the least drifted loops weigh most.
+std::map<TeamGraph::Link, TeamGraph::Candidates> TeamGraph::candidates() const {
+  // Inter-robot loops along their links: own keyframes at their optimised poses, teammates' at
+  // their own; each with the drift of both keyframes since their robots' starts (a teammate's
+  // from its keyframes' poses, with this robot's odometry model), so that a true loop seen
+  // after long drift still agrees and the least drifted loops weigh most.
   std::map<std::string, std::map<KeyframeId, Covariance6>> peer_covariances;
   for (const auto& [peer, keyframes] : peers_) peer_covariances[peer] = peerDrift(peer);
-  std::map<std::string, Candidates> candidates;
+  // A keyframe's pose (own: optimised; a teammate's: its own), odometry pose and drift.
+  struct Known {
+    Pose3 pose, odom;
+    Covariance6 drift;
+  };
+  const auto known = [&](const std::string& robot, KeyframeId id) -> std::optional<Known> {
+    if (robot == robot_) {
+      const int i = ownIndex(id);
+      if (i < 0) return std::nullopt;
+      const auto k = static_cast<std::size_t>(i);
+      return Known{graph_.poses[k], odom_poses_[k], odom_covariances_[k]};
+    }
+    const auto peer = peers_.find(robot);
+    if (peer == peers_.end()) return std::nullopt;
+    const auto it = peer->second.find(id);
+    if (it == peer->second.end()) return std::nullopt;
+    return Known{it->second, it->second, peer_covariances.at(robot).at(id)};
+  };
+  std::map<Link, Candidates> candidates;
   for (const auto& loop : loops_) {
     const auto inter = oriented(loop);
     if (!inter) continue;
-    const auto& [peer, own, theirs, relative] = *inter;
-    const auto peer_keyframes = peers_.find(peer);
-    if (own < 0 || peer_keyframes == peers_.end()) continue;
-    const auto other = peer_keyframes->second.find(theirs);
-    if (other == peer_keyframes->second.end()) continue;
+    const auto& [link, first, second, relative] = *inter;
+    const auto a = known(link.first, first);
+    const auto b = known(link.second, second);
+    if (!a || !b) continue;
     alignment::AlignmentCandidate c;
-    const auto i = static_cast<std::size_t>(own);
-    c.pose_a = graph_.poses[i];
-    c.pose_b = other->second;
+    c.pose_a = a->pose;
+    c.pose_b = b->pose;
     c.measurement = relative;
     c.covariance = loop.covariance;  // a first-order approximation for the inverted direction
-    c.covariance_a = inBodyFrame(odom_covariances_[i], odom_poses_[i].linear());
-    c.covariance_b = inBodyFrame(peer_covariances.at(peer).at(theirs),
-                                 c.pose_b.linear() * c.measurement.linear().transpose());
-    candidates[peer].list.push_back(c);
-    candidates[peer].keys.push_back(keyOf(loop));
+    c.covariance_a = inBodyFrame(a->drift, a->odom.linear());
+    c.covariance_b = inBodyFrame(b->drift, b->odom.linear() * relative.linear().transpose());
+    candidates[link].list.push_back(c);
+    candidates[link].keys.push_back(keyOf(loop));
   }
   return candidates;
 }
@@ -346,27 +371,55 @@ BackendSnapshot TeamGraph::optimize() {
   const auto elapsed_s = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
+  // The EM of a link, or (once its transform was found, until its closures grew by
+  // kEmRerunGrowth since the last full EM) a re-check of that transform against them: O(n).
+  const auto align = [&](const Link& link, const std::vector<alignment::AlignmentCandidate>& list,
+                         bool recheck) {
+    alignment::AlignmentResult result;
+    const auto last = last_em_.find(link);
+    if (recheck && last != last_em_.end() && last->second.second.found &&
+        static_cast<double>(list.size()) < (1.0 + kEmRerunGrowth) * last->second.first) {
+      result = alignment::checkFrameTransform(list, em, last->second.second);
+    }
+    if (!result.found) {
+      result = alignment::estimateFrameTransform(list, em);
+      last_em_[link] = {list.size(), result};
+    }
+    return result;
+  };
+  // Own links first: a teammate that joins now lets in its links with the others in the graph.
   const auto all_candidates = candidates();
-  std::size_t peers_left = all_candidates.size();
-  for (const auto& [peer, candidates] : all_candidates) {
+  std::vector<const std::pair<const Link, Candidates>*> links;
+  for (const auto& entry : all_candidates) {
+    if (entry.first.first == robot_) links.push_back(&entry);
+  }
+  for (const auto& entry : all_candidates) {
+    if (entry.first.first != robot_) links.push_back(&entry);
+  }
+  std::size_t links_left = links.size();
+  for (const auto* entry : links) {
+    const auto& [link, candidates] = *entry;
     const auto& list = candidates.list;
+    const bool own = link.first == robot_;
+    if (!own && !(joined_.count(link.first) && joined_.count(link.second))) {
+      --links_left;  // its closures could not enter the graph
+      continue;
+    }
+    // Its share of what the EM has left (its best supported start runs whatever is left).
+    em.max_time_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
+                    static_cast<double>(links_left--);
+    if (!own) {  // two teammates' closures: the EM only gates them
+      const auto found = align(link, list, true);
+      for (std::size_t k = 0; found.found && k < list.size(); ++k) {
+        if (found.inliers[k]) gate_[link].insert(candidates.keys[k]);
+      }
+      continue;
+    }
+    const std::string& peer = link.second;
     TeamEstimate estimate;
     estimate.peer = peer;
     estimate.candidates = static_cast<int>(list.size());
-    // Its share of what the EM has left (its best supported start runs whatever is left).
-    em.max_time_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
-                    static_cast<double>(peers_left--);
-    // A joined teammate's transform is only re-checked (O(n)) until its closures grew by
-    // kEmRerunGrowth since the last full EM, or it stops holding.
-    const auto last = last_em_.find(peer);
-    if (joined_.count(peer) && last != last_em_.end() &&
-        static_cast<double>(list.size()) < (1.0 + kEmRerunGrowth) * last->second.first) {
-      estimate.alignment = alignment::checkFrameTransform(list, em, last->second.second);
-    }
-    if (!estimate.alignment.found) {
-      estimate.alignment = alignment::estimateFrameTransform(list, em);
-      last_em_[peer] = {list.size(), estimate.alignment};
-    }
+    estimate.alignment = align(link, list, joined_.count(peer) > 0);
     const alignment::AlignmentResult& found = estimate.alignment;
     auto joined = joined_.find(peer);
     if (joined == joined_.end() && found.found && params_.team_graph) {
@@ -380,7 +433,7 @@ BackendSnapshot TeamGraph::optimize() {
       const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180 / M_PI;
       if (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg) {
         // The hypothesis with clearly more agreeing closures wins, by the EM's own margin.
-        const int accepted = static_cast<int>(kept_[peer].size());
+        const int accepted = static_cast<int>(kept_[link].size());
         char text[320];
         if (accepted + params_.team_inlier_margin >= found.inlier_count) {
           std::snprintf(text, sizeof text,
@@ -395,7 +448,7 @@ BackendSnapshot TeamGraph::optimize() {
                         peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count,
                         peer.c_str());
           joined->second = {found.transform, {}};
-          kept_.erase(peer);
+          kept_.erase(link);
         }
         snapshot.notices.push_back({"team disagreement", text});
       }
@@ -403,7 +456,7 @@ BackendSnapshot TeamGraph::optimize() {
     for (std::size_t k = 0; found.found && k < list.size(); ++k) {
       if (!found.inliers[k]) continue;
       if (joined != joined_.end()) {
-        gate_[peer].insert(candidates.keys[k]);
+        gate_[link].insert(candidates.keys[k]);
       } else {
         em_lines.push_back({list[k].pose_a.translation(),
                             (found.transform * list[k].pose_b).translation(), true, true});

@@ -75,11 +75,16 @@ void TeamGraphWorker::addTeammateLoop(const LoopClosureData& loop) {
   switch (backend::routeTeammateLoop(graph_robot_, loop)) {
     case backend::LoopRoute::kUse:
       queue(PeerKeyframe{loop.robot_from, loop.keyframe_from, *loop.odom_pose_from}, false);
+      if (loop.robot_to != graph_robot_ && loop.robot_to != loop.robot_from && loop.odom_pose_to) {
+        queue(PeerKeyframe{loop.robot_to, loop.keyframe_to, *loop.odom_pose_to}, false);
+      }
       return queue(loop, true);
     case backend::LoopRoute::kIgnore:
-      return refuse(Refusal::kIgnoredLoopClosure, describe(loop) + ": not with this robot");
+      return refuse(Refusal::kIgnoredLoopClosure, describe(loop) + ": this robot's own");
     default:
-      refuse(Refusal::kTeammateLoopClosure, describe(loop) + ": no odom_pose_from");
+      refuse(
+          Refusal::kTeammateLoopClosure,
+          describe(loop) + (loop.odom_pose_from ? ": within one teammate" : ": no odom_pose_from"));
   }
 }
 
@@ -94,7 +99,7 @@ TeamGraphWorker::RefusalReport TeamGraphWorker::reportOf(Refusal why) {
     case Refusal::kTeammateLoopClosure:
       return {"inbox/loop_closures", true};
     case Refusal::kIgnoredLoopClosure:
-      return {"ignored inbox/loop_closures (not with this robot)", false};
+      return {"ignored inbox/loop_closures (this robot's own)", false};
     case Refusal::kDuplicateLoopClosure:
       break;
   }

@@ -20,6 +20,8 @@ struct LoopClosureData {
   Matrix6 covariance = Matrix6::Identity();
   /// Keyframe "from"'s odometry pose, when the robot that found the closure sent it along.
   std::optional<Pose3> odom_pose_from;
+  /// Keyframe "to"'s odometry pose (a teammate's, as the finder received it), when known.
+  std::optional<Pose3> odom_pose_to;
   /// How the finder found and verified it, for reports (the graph weighs the covariance): the
   /// place-recognition score, the registration's mean squared distance (m^2) and inliers, and
   /// the method ("fabmap" or "histogram").
@@ -46,8 +48,9 @@ enum class LoopRoute {
 LoopRoute routeOwnLoop(const std::string& self, const LoopClosureData& loop);
 
 /// A closure a teammate found and sent (its own keyframe is "from"): used when it joins that
-/// teammate to this robot, ignored when it is between others or this robot's own coming back;
-/// dropped without the teammate's keyframe pose, which this robot may not have.
+/// teammate to this robot or to another teammate (the team graph holds the whole team's),
+/// ignored when it is this robot's own coming back; dropped without the finder's keyframe pose,
+/// which this robot may not have, or when it is within the teammate (never shared).
 LoopRoute routeTeammateLoop(const std::string& self, const LoopClosureData& loop);
 
 }  // namespace ccir_mapping::core::backend

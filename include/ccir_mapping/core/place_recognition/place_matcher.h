@@ -31,9 +31,8 @@ namespace ccir_mapping::core::place_recognition {
 struct DescribedKeyframe {
   KeyframeId id = 0;
   Stamp stamp = 0;
-  /// Own keyframes: the sensor pose from odometry and the odometry path length up to it, which
-  /// bound how far a loop closure may move it (describeOwn; teammates' keyframes leave them
-  /// unset).
+  /// The sensor pose from odometry (in its robot's frame), and for own keyframes the odometry
+  /// path length up to it, which bound how far a loop closure may move it (describeOwn).
   std::optional<Pose3> odom_pose;
   double path_m = 0.0;
   WordSet words;
@@ -65,11 +64,14 @@ class PlaceMatcher {
   std::size_t places() const;
   /// The odometry pose of an own place (keyframe), if it is one and had one.
   std::optional<Pose3> placeOdomPose(KeyframeId id) const;
-  /// `match`, found for keyframe `query` of `query_robot` (robot `self`'s own or a teammate's),
-  /// as a loop closure: "from" is always this robot's keyframe (of an own loop the older one,
-  /// the place), with its odometry pose when it is a place that had one.
+  /// `match`, found for keyframe `query` of `query_robot` (robot `self`'s own or a teammate's,
+  /// then with its odometry pose `query_odom_pose`), as a loop closure: "from" is always this
+  /// robot's keyframe (of an own loop the older one, the place), with its odometry pose when it
+  /// is a place that had one; an inter-robot one carries the teammate's keyframe's odometry pose
+  /// (odom_pose_to) when known, so that a third robot can place it.
   backend::LoopClosureData loopClosure(const std::string& self, const MatchCandidate& match,
-                                       const std::string& query_robot, KeyframeId query) const;
+                                       const std::string& query_robot, KeyframeId query,
+                                       const std::optional<Pose3>& query_odom_pose = {}) const;
 
   /// Features (with the model's settings), words and verification cloud of a keyframe cloud in
   /// its sensor frame; `up` is gravity's opposite in that frame.
@@ -81,6 +83,11 @@ class PlaceMatcher {
   DescribedKeyframe describeOwn(KeyframeId id, Stamp stamp,
                                 const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                 const Pose3& odom_pose) const;
+  /// A teammate's keyframe, described with its odometry pose in the teammate's frame (gravity
+  /// comes from it; the closures found with it carry it).
+  DescribedKeyframe describeTeammate(KeyframeId id, Stamp stamp,
+                                     const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
+                                     const Pose3& odom_pose) const;
   /// Counts the odometry distance to an own keyframe (also to one that is dropped: the robot
   /// moved all the same).
   void addOwnTravel(double travelled_m) { path_m_ += travelled_m; }

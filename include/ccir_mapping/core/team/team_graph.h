@@ -2,13 +2,18 @@
 // the EM over inter-robot loop closures decides whether the transform between their frames is
 // known; once it is, the teammate joins the graph (team_graph): its known keyframes become nodes,
 // chained by odometry edges from its poses, and the inter-robot closures with it become switchable
-// constraints like intra-robot ones. Two filters in series: a closure enters the graph when the
-// EM counts it an inlier of the transform (or the graph's switches kept it before), and the
-// switches then judge it against everything else in the graph.
+// constraints like intra-robot ones. Closures between two teammates (found by one of them and
+// shared) enter too once both are in the graph, so that each robot's graph holds the whole
+// team's (the distributed formulation of Dong et al., ICRA 2015). Two filters in series: a
+// closure enters the graph when the EM of its link (this robot and a teammate, or the two
+// teammates) counts it an inlier (or the graph's switches kept it before), and the switches then
+// judge it against everything else in the graph.
 //
 //   own:       o---o---o---o---o---o---o---o        o own keyframe, --- odometry
 //                  :               :                 : inter-robot loop closure (switchable)
 //   teammate:      x---x---x---x---x---x             x teammate keyframe, placed by the graph
+//                      :       :
+//   teammate 2:        y---y---y---y                 y another's, held to x by x's closures
 //
 // The teammate's transform is the graph's gauge of its part: the EM's initialises its nodes, and
 // after each solve the transform is re-fitted (x y z yaw) between the teammate's own poses and
@@ -96,9 +101,9 @@ class TeamGraph {
   bool addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose);
   /// A teammate's keyframe, with its pose in the teammate's frame.
   bool addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose);
-  /// Intra- or inter-robot; kept until both keyframes are known. False when it concerns neither
-  /// this robot nor is otherwise usable (both keyframes a teammate's, invalid pose), or when
-  /// knows() it.
+  /// Intra-robot (own), or inter-robot: with this robot, or between two teammates (found by one
+  /// of them and shared); kept until both keyframes are in the graph. False for a teammate's own
+  /// closure (never shared), an invalid pose or covariance, or one knows() already.
   bool addLoopClosure(const backend::LoopClosureData& loop);
   /// Whether a closure between the same two keyframes (either direction) was added: both robots
   /// of a pair may find and share it, and it must count once.
@@ -166,38 +171,42 @@ class TeamGraph {
 
   /// Index of own keyframe `id` in the graph, or -1.
   int ownIndex(KeyframeId id) const;
-  /// An inter-robot closure seen from this robot: the teammate, the own keyframe's index (-1:
-  /// unknown), the teammate's keyframe, and its pose in the own keyframe's frame.
+  /// Two robots whose closures one EM judges: (this robot, a teammate), or two teammates in name
+  /// order (closures one of them found and shared).
+  using Link = std::pair<std::string, std::string>;
+  /// An inter-robot closure along its link: keyframe `first` of link.first, keyframe `second` of
+  /// link.second, and the second's pose in the first's frame.
   struct Oriented {
-    std::string peer;
-    int own;
-    KeyframeId theirs;
+    Link link;
+    KeyframeId first;
+    KeyframeId second;
     Pose3 relative;
   };
   /// nullopt for a closure within one robot.
   std::optional<Oriented> oriented(const backend::LoopClosureData& loop) const;
   /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
-  /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_), keeps its poses
+  /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_ whose keyframes
+  /// are both in it), keeps its poses
   /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
   void solve(BackendSnapshot& snapshot, double max_time_s);
-  /// The EM's candidates with one teammate, and the closure each one is.
+  /// The EM's candidates along one link, and the closure each one is.
   struct Candidates {
     std::vector<alignment::AlignmentCandidate> list;
     std::vector<LoopKey> keys;
   };
-  /// Per teammate: own keyframes at their optimised poses, the teammate's at its own, with both
-  /// one's drift.
-  std::map<std::string, Candidates> candidates() const;
+  /// Per link: own keyframes at their optimised poses, teammates' at their own, each with its
+  /// drift.
+  std::map<Link, Candidates> candidates() const;
   /// Covariance of each of the teammate's poses from its odometry (this robot's noise model).
   std::map<KeyframeId, backend::Covariance6> peerDrift(const std::string& peer) const;
   /// The teammate's transform fitted (x y z yaw) from its own poses to its optimised ones.
   Pose3 refinedTransform(const std::string& peer) const;
   /// Inter-robot closures the EM counts as inliers (this optimisation), and those the graph's
-  /// switches kept (the last solve), per joined teammate.
-  std::map<std::string, std::set<LoopKey>> gate_;
-  std::map<std::string, std::set<LoopKey>> kept_;
-  /// Per teammate: its closures at the last full EM, and that EM's result.
-  std::map<std::string, std::pair<std::size_t, alignment::AlignmentResult>> last_em_;
+  /// switches kept (the last solve), per link.
+  std::map<Link, std::set<LoopKey>> gate_;
+  std::map<Link, std::set<LoopKey>> kept_;
+  /// Per link: its closures at the last full EM, and that EM's result.
+  std::map<Link, std::pair<std::size_t, alignment::AlignmentResult>> last_em_;
 };
 
 }  // namespace ccir_mapping::core::team

@@ -38,9 +38,9 @@ class TeamGraphWorker {
     kPeerKeyframe,  ///< not a teammate's, without a valid pose, or rejected by the graph
     /// A closure this robot found: unusable, not with this robot, or rejected by the graph.
     kLoopClosure,
-    /// A closure a teammate sent: unusable, or without its keyframe's odometry pose.
+    /// A closure a teammate sent: unusable, without its keyframe's odometry pose, or within it.
     kTeammateLoopClosure,
-    kIgnoredLoopClosure,    ///< a teammate's closure between others, or this robot's coming back
+    kIgnoredLoopClosure,    ///< this robot's own closure coming back from a teammate
     kDuplicateLoopClosure,  ///< one it has (the teammate found and sent it too)
   };
   /// How a refusal shows in diagnostics: the flow (topic) it counts in, and whether the input
