@@ -689,7 +689,7 @@ TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed
   worker.addTeammateLoop(loop);  // robot_a's own coming back
   sent.odom_pose_from = Pose3::Identity();
   worker.addTeammateLoop(sent);  // used: no refusal
-  // Between two teammates (robot_c found it): used, both keyframes placed with their poses.
+  // Between two teammates (robot_c found it): used: no refusal.
   others.odom_pose_from = others.odom_pose_to = Pose3::Identity();
   worker.addTeammateLoop(others);
   std::lock_guard<std::mutex> lock(mutex);

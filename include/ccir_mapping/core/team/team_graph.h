@@ -110,7 +110,7 @@ class TeamGraph {
   bool knows(const backend::LoopClosureData& loop) const;
 
   /// Optimises the graph and re-estimates every team transform, within max_solve_time_s (the
-  /// EM gets at most kEmTimeShare of it, split between the teammates; the solve the rest). A
+  /// EM gets at most kEmTimeShare of it, split between the links; the solve the rest). A
   /// teammate whose EM transform is found joins the graph (and is optimised at once). Once joined,
   /// a later EM transform farther than team_disagreement_m / _deg from the graph's is a
   /// disagreement, resolved by the EM's own rule: the graph's transform is kept while its switches
