@@ -11,14 +11,13 @@ import sys
 import numpy as np
 import yaml
 
+from clouds import quaternion_matrix
+
 
 def matrix(translation, xyzw):
     """4 x 4 rigid transform from a translation and a unit quaternion (x, y, z, w)."""
-    x, y, z, w = xyzw
     m = np.identity(4)
-    m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    m[:3, :3] = quaternion_matrix(xyzw)
     m[:3, 3] = translation
     return m
 
@@ -45,7 +44,7 @@ def team_frames(robot, report, plans, start_s):
     """What a robot knows of each teammate's map frame: the Backend's last TeamTransform, for a
     valid one its error against the truth (metres, degrees), and from the time series the
     mission seconds to the first valid transform (with its error) and to the first within
-    CORRECT_M / CORRECT_DEG."""
+    CORRECT_M / CORRECT_DEG, and the error of every valid one over mission time."""
     known = []
     series = report.get("series", {}).get("team_transforms", {})
     for peer, t in report.get("team_transforms", {}).items():
@@ -55,18 +54,22 @@ def team_frames(robot, report, plans, start_s):
             known.append(entry)
             continue
         if t["valid"]:
+            entry["translation"], entry["rotation_xyzw"] = t["translation"], t["rotation_xyzw"]
             entry["error_m"], entry["error_deg"] = transform_error(
                 robot, peer, plans, t["translation"], t["rotation_xyzw"])
+        entry["error_series"] = []
         for stamp, valid, _, translation, xyzw in series.get(peer, []):
             if not valid:
                 continue
             error_m, error_deg = transform_error(robot, peer, plans, translation, xyzw)
+            entry["error_series"].append(
+                [round(stamp - start_s, 2), round(error_m, 3), round(error_deg, 2)])
             if "first_valid_s" not in entry:
                 entry["first_valid_s"] = round(stamp - start_s, 2)
                 entry["first_valid_error"] = [round(error_m, 3), round(error_deg, 2)]
-            if error_m <= CORRECT_M and error_deg <= CORRECT_DEG:
+            if (error_m <= CORRECT_M and error_deg <= CORRECT_DEG
+                    and "first_correct_s" not in entry):
                 entry["first_correct_s"] = round(stamp - start_s, 2)
-                break
         known.append(entry)
     return known
 

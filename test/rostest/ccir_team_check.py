@@ -11,14 +11,12 @@ import subprocess
 import tempfile
 import unittest
 
-import rosgraph
 import rospy
 import rosunit
 import yaml
 
-from rostest_processes import Processes, free_port
+from rostest_processes import Processes
 
-TEAM_KEY = "ccir-team-test-team-key"
 BUDGET = 150000.0
 BURST = 131072
 # Frames of a fragment (64 KB + header and MAC) may complete a window's count.
@@ -51,26 +49,11 @@ class CcirTeam(Processes, unittest.TestCase):
     def run_team(self, robots):
         run = os.path.join(self.dir, "%d_robots" % len(robots))
         os.makedirs(run)
-        master = {r: free_port() for r in robots}
-        listen = {r: free_port() for r in robots}
-        for robot, port in master.items():
-            self.spawn("master_" + robot, ["rosmaster", "--core", "-p", str(port)], port)
-        for robot, port in master.items():
-            online = rosgraph.Master("/ccir_team", "http://127.0.0.1:%d" % port).is_online
-            self.wait_for(online, 30, "the master of " + robot)
+        master = self.start_team(run, robots, lambda robot, bridge: (
+            "broker: {mode: ccir, stats_period_s: 0.5}\n"
+            "bridge: {%s, budget_bytes_per_s: %f, total_budget_bytes_per_s: %f, "
+            "burst_bytes: %d, stats_period_s: 0.2}\n" % (bridge, BUDGET, BUDGET, BURST)))
         for robot in robots:
-            config = os.path.join(run, robot + ".yaml")
-            peers = ", ".join("{name: %s, host: 127.0.0.1, port: %d}" % (p, listen[p])
-                              for p in robots if p != robot)
-            with open(config, "w") as f:
-                f.write("broker: {mode: ccir, stats_period_s: 0.5}\n"
-                        "bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
-                        "  total_budget_bytes_per_s: %f\n  burst_bytes: %d\n"
-                        "  reconnect_min_s: 0.2\n  stats_period_s: 0.2\n  peers: [%s]\n"
-                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, peers))
-            self.spawn("pipeline_" + robot, ["roslaunch", "ccir_mapping", "robot.launch",
-                                             "robot:=" + robot, "use_sim_time:=true",
-                                             "overrides:=" + config], master[robot])
             self.spawn("link_" + robot, ["rostopic", "echo", "-p", "/link_stats"], master[robot],
                        out=os.path.join(run, robot + "_links.csv"))
             self.spawn("team_" + robot, ["rostopic", "echo", "-p", "/team_transforms"],

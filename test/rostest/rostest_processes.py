@@ -7,6 +7,10 @@ import socket
 import subprocess
 import time
 
+import rosgraph
+
+TEAM_KEY = "rostest-team-key"
+
 
 def free_port():
     """A free TCP port below the ephemeral range: a port the kernel hands out (bind to 0) may be
@@ -53,6 +57,32 @@ class Processes:
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, signal.SIGKILL)
         self.processes = []
+
+    def start_team(self, run, robots, overrides, launch_args=lambda robot: []):
+        """Each robot on a rosmaster of its own and its pipeline (launch/robot.launch, simulated
+        time), the robots bridged over loopback. overrides(robot, bridge) returns the YAML that
+        robot's pipeline loads over config/robot.yaml; bridge is the flow-style body of its
+        bridge's settings (listen port, team key, peers). Returns {robot: master port}."""
+        master = {r: free_port() for r in robots}
+        listen = {r: free_port() for r in robots}
+        for robot, port in master.items():
+            self.spawn("master_" + robot, ["rosmaster", "--core", "-p", str(port)], port)
+        for robot, port in master.items():
+            online = rosgraph.Master("/rostest", "http://127.0.0.1:%d" % port).is_online
+            self.wait_for(online, 30, "the master of " + robot)
+        for robot in robots:
+            peers = ", ".join("{name: %s, host: 127.0.0.1, port: %d}" % (p, listen[p])
+                              for p in robots if p != robot)
+            bridge = ("listen_port: %d, team_key: %s, reconnect_min_s: 0.2, peers: [%s]"
+                      % (listen[robot], TEAM_KEY, peers))
+            config = os.path.join(run, robot + ".yaml")
+            with open(config, "w") as f:
+                f.write(overrides(robot, bridge))
+            self.spawn("pipeline_" + robot,
+                       ["roslaunch", "ccir_mapping", "robot.launch", "robot:=" + robot,
+                        "use_sim_time:=true", "overrides:=" + config] + launch_args(robot),
+                       master[robot])
+        return master
 
     def wait_for(self, condition, timeout_s, what, poll_s=0.2):
         deadline = time.monotonic() + timeout_s
