@@ -11,6 +11,7 @@ import os
 import time
 import xmlrpc.client
 
+import numpy as np
 import rosgraph
 import rospy
 from ccir_mapping.msg import (BrokerStats, Keyframe, KeyframeFeatures, LinkStats, LoopClosure,
@@ -18,6 +19,13 @@ from ccir_mapping.msg import (BrokerStats, Keyframe, KeyframeFeatures, LinkStats
 from diagnostic_msgs.msg import DiagnosticArray
 from rosgraph_msgs.msg import Clock
 from nav_msgs.msg import Path
+
+from clouds import quaternion_matrix, xyz
+
+# The top-down picture of the map: wall points 0.2-1.5 m above the ground (the sensor is 0.5 m
+# up), one per TOPDOWN_CELL_M cube of a keyframe.
+TOPDOWN_Z_M = (-0.3, 1.0)
+TOPDOWN_CELL_M = 0.25
 
 
 def process_cpu_s(pid):
@@ -44,6 +52,7 @@ class Report:
         self.features_latency_s = []
         self.loop_latency_s = []
         self.keyframes = []
+        self.walls = {}  # keyframe stamp -> its wall points in the sensor frame
         self.features = 0
         self.trajectory = None
         self.broker = None
@@ -99,6 +108,10 @@ class Report:
         self.keyframes.append({"id": msg.id, "stamp": msg.header.stamp.to_sec(), "x": p.x, "y": p.y,
                                "z": p.z, "points": msg.cloud.width * msg.cloud.height,
                                "travelled_m": msg.travelled_m})
+        points = xyz(msg.cloud)
+        points = points[(points[:, 2] > TOPDOWN_Z_M[0]) & (points[:, 2] < TOPDOWN_Z_M[1])]
+        cells = np.unique(np.floor(points / TOPDOWN_CELL_M), axis=0)
+        self.walls[msg.header.stamp.to_sec()] = (cells + 0.5) * TOPDOWN_CELL_M
 
     def on_features(self, msg):
         self.features += 1
@@ -155,6 +168,17 @@ class Report:
 
     def connected(self):
         return all(s.get_num_connections() > 0 for s in self.subs[:2])
+
+    def topdown_xy(self):
+        """Every keyframe's wall points at its optimised pose, in the robot's map frame (x y)."""
+        placed = []
+        for pose in self.trajectory.poses if self.trajectory else []:
+            points = self.walls.get(pose.header.stamp.to_sec())
+            if points is None:
+                continue
+            o, p = pose.pose.orientation, pose.pose.position
+            placed.append(points @ quaternion_matrix([o.x, o.y, o.z, o.w])[:2].T + [p.x, p.y])
+        return np.vstack(placed) if placed else np.zeros((0, 2))
 
     def as_dict(self):
         spacing = [math.dist((a["x"], a["y"]), (b["x"], b["y"]))
@@ -264,6 +288,7 @@ def main():
                              ("loop_closures", report.loop_latency_s))}
     with open(args.out + "/report.json", "w") as f:
         json.dump(result, f, indent=2)
+    np.save(args.out + "/topdown_xy.npy", report.topdown_xy())
 
     lines = ["what flowed through each nodelet (from their diagnostics):"]
     for name, info in result["nodelets"].items():
