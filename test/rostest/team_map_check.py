@@ -38,8 +38,8 @@ ODOM = {"robot_a": "ground_truth", "robot_b": "odom"}
 VOXEL_M = 0.1       # the Mapper's default resolution_m
 WITHIN_M = 0.2      # "on the teammate's true walls"
 ON_WALLS = 0.85     # share of the teammate's voxels within WITHIN_M, with the team graph
-# Replay speed: slow enough that two pipelines on one busy core lose nothing (at 0.5 x with the
-# other core taken, half the inter-robot loop closures went missing).
+# Replay speed: slow enough that two pipelines on one busy core keep up (at 0.5 x with the other
+# core taken, one of two runs got half the inter-robot loop closures and a share of 0.72).
 RATE = "0.25"
 
 
