@@ -108,8 +108,12 @@ class TeamMap(Processes, unittest.TestCase):
                        master[robot], out=os.path.join(run, robot + "_team.csv"))
 
         def linked():
-            out = subprocess.run(["rostopic", "echo", "-n", "1", "/link_stats/connected"],
-                                 env=self.env(master["robot_a"]), capture_output=True, text=True)
+            try:  # bounded, so that a link that never reports fails the wait, not the time limit
+                out = subprocess.run(["rostopic", "echo", "-n", "1", "/link_stats/connected"],
+                                     env=self.env(master["robot_a"]), capture_output=True,
+                                     text=True, timeout=30)
+            except subprocess.TimeoutExpired:
+                return False
             return out.stdout.startswith("True")
         self.wait_for(linked, 300, "robot_a's link to robot_b came up")
         # Only the teammate's scans: no own keyframes, a cloud topic of its own, nothing saved
