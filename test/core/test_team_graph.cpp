@@ -659,6 +659,44 @@ TEST(TeamGraphWorker, OptimisesOnATickAndAtOnceForALoopClosureAndReportsWhatItRe
   EXPECT_EQ(batches, 3) << "a batch per optimisation";
 }
 
+TEST(TeamGraphWorker, OnTheCallersThreadEachCallReturnsWithItsOptimisationDone) {
+  using Worker = TeamGraphWorker;
+  std::vector<BackendSnapshot> snapshots;
+  const auto caller = std::this_thread::get_id();
+  Worker::Hooks hooks;
+  hooks.optimized = [&](const BackendSnapshot& snapshot, const TeamGraph&) {
+    EXPECT_EQ(std::this_thread::get_id(), caller);
+    snapshots.push_back(snapshot);
+  };
+  Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks,
+                Worker::Threading::kCaller);
+  std::vector<Pose3> poses;
+  for (KeyframeId id = 0; id < 5; ++id) {
+    poses.push_back(Pose3(Eigen::Translation3d(double(id), 0.0, 0.0)));
+    worker.add(Worker::OwnKeyframe{"robot_a", id, fromSeconds(100.0 + id), poses.back()});
+  }
+  EXPECT_TRUE(snapshots.empty()) << "keyframes wait for a tick";
+  worker.tick();
+  ASSERT_EQ(snapshots.size(), 1U);
+  EXPECT_EQ(snapshots[0].poses.size(), 5U);
+  worker.tick();
+  EXPECT_EQ(snapshots.size(), 1U) << "nothing new: no optimisation";
+  LoopClosureData loop;
+  loop.robot_from = loop.robot_to = "robot_a";
+  loop.keyframe_from = 0;
+  loop.keyframe_to = 4;
+  loop.relative = poses[0].inverse() * poses[4];
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  worker.addOwnLoop(loop);
+  ASSERT_EQ(snapshots.size(), 2U) << "a loop closure is optimised before the call returns";
+  EXPECT_EQ(snapshots[1].loops.intra, 1);
+  std::vector<double> switches;
+  std::vector<std::string> robots;
+  EXPECT_TRUE(worker.inspect([&](const TeamGraph& graph) {
+    EXPECT_EQ(graph.exportGraph(&switches, &robots).poses.size(), 5U);
+  }));
+}
+
 TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed) {
   using Worker = TeamGraphWorker;
   std::mutex mutex;

@@ -15,13 +15,13 @@ std::string describe(const LoopClosureData& loop) {
 
 }  // namespace
 
-TeamGraphWorker::TeamGraphWorker(std::unique_ptr<TeamGraph> graph, Hooks hooks)
-    : graph_robot_(graph->robot()),
-      graph_(std::move(graph)),
-      hooks_(std::move(hooks)),
-      thread_([this] { run(); }) {}
+TeamGraphWorker::TeamGraphWorker(std::unique_ptr<TeamGraph> graph, Hooks hooks, Threading threading)
+    : graph_robot_(graph->robot()), graph_(std::move(graph)), hooks_(std::move(hooks)) {
+  if (threading == Threading::kOwnThread) thread_ = std::thread([this] { run(); });
+}
 
 TeamGraphWorker::~TeamGraphWorker() {
+  if (!thread_.joinable()) return;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -111,6 +111,12 @@ void TeamGraphWorker::refuse(Refusal why, const std::string& text) const {
 }
 
 void TeamGraphWorker::tick() {
+  if (!thread_.joinable()) {
+    std::deque<Input> inputs;
+    inputs.swap(inputs_);
+    if (!inputs.empty()) optimize(inputs);
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     due_ = true;
@@ -119,6 +125,10 @@ void TeamGraphWorker::tick() {
 }
 
 bool TeamGraphWorker::inspect(const std::function<void(const TeamGraph&)>& task) {
+  if (!thread_.joinable()) {
+    task(*graph_);
+    return true;
+  }
   auto done = std::make_shared<std::promise<void>>();
   std::future<void> finished = done->get_future();
   {
@@ -143,6 +153,11 @@ bool TeamGraphWorker::inspect(const std::function<void(const TeamGraph&)>& task)
 }
 
 void TeamGraphWorker::queue(Input input, bool urgent) {
+  if (!thread_.joinable()) {
+    inputs_.push_back(std::move(input));
+    if (urgent) tick();
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     inputs_.push_back(std::move(input));
@@ -163,15 +178,17 @@ void TeamGraphWorker::run() {
       due_ = false;
       tasks.swap(tasks_);
     }
-    if (!inputs.empty()) {
-      const BackendSnapshot snapshot = hooks_.run([&] {
-        for (const Input& input : inputs) apply(input);
-        return graph_->optimize();
-      });
-      if (hooks_.optimized) hooks_.optimized(snapshot, *graph_);
-    }
+    if (!inputs.empty()) optimize(inputs);
     for (const auto& task : tasks) task(*graph_);
   }
+}
+
+void TeamGraphWorker::optimize(const std::deque<Input>& inputs) {
+  const BackendSnapshot snapshot = hooks_.run([&] {
+    for (const Input& input : inputs) apply(input);
+    return graph_->optimize();
+  });
+  if (hooks_.optimized) hooks_.optimized(snapshot, *graph_);
 }
 
 void TeamGraphWorker::apply(const Input& input) {

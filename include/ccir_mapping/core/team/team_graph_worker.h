@@ -1,6 +1,9 @@
 // A TeamGraph on a thread of its own: callers hand over keyframes and loop closures and return
 // at once; the worker applies them and re-optimises at each tick() and as soon as a loop
-// closure arrives, so a solve never holds the caller's thread (a nodelet manager's).
+// closure arrives, so a solve never holds the caller's thread (a nodelet manager's). On the
+// caller's thread instead (Threading::kCaller) the same happens before each call returns, so a
+// program in simulated time (core/runner) gets the same optimisations in the same order on
+// every run.
 #pragma once
 
 #include <condition_variable>
@@ -64,7 +67,10 @@ class TeamGraphWorker {
     std::function<void(Refusal, const std::string&)> refused;
   };
 
-  TeamGraphWorker(std::unique_ptr<TeamGraph> graph, Hooks hooks);
+  enum class Threading { kOwnThread, kCaller };
+
+  TeamGraphWorker(std::unique_ptr<TeamGraph> graph, Hooks hooks,
+                  Threading threading = Threading::kOwnThread);
   /// Stops the worker; inputs not applied yet are dropped.
   ~TeamGraphWorker();
 
@@ -87,6 +93,8 @@ class TeamGraphWorker {
   using Input = std::variant<OwnKeyframe, PeerKeyframe, backend::LoopClosureData>;
   void queue(Input input, bool urgent);
   void run();
+  /// Applies `inputs`, optimises and reports (hooks.run, hooks.optimized).
+  void optimize(const std::deque<Input>& inputs);
   void apply(const Input& input);
   void refuse(Refusal why, const std::string& text) const;
 
@@ -99,7 +107,7 @@ class TeamGraphWorker {
   std::deque<std::function<void(const TeamGraph&)>> tasks_;  // inspect()'s
   bool due_ = false;
   bool stop_ = false;
-  std::thread thread_;  // last: starts once everything above is constructed
+  std::thread thread_;  // last: starts once everything above is constructed (kOwnThread only)
 };
 
 }  // namespace ccir_mapping::core::team
