@@ -19,66 +19,19 @@
 #include "ccir_mapping/core/simulation/mission.h"
 #include "ccir_mapping/ros/mission_files.h"
 #include "command_line.h"
+#include "flag_registrar.h"
 
 namespace po = boost::program_options;
 namespace tools = ccir_mapping::tools;
 namespace sim = ccir_mapping::core::simulation;
 namespace io = ccir_mapping::simulation_io;
+using tools::flagName;
+using tools::FlagRegistrar;
+using tools::text;
 
 namespace {
 
 constexpr int kExitBadArguments = 2;
-
-std::string flagName(const std::string& name) {
-  std::string flag = name;
-  std::replace(flag.begin(), flag.end(), '_', '-');
-  return flag;
-}
-
-template <class T>
-std::string text(const T& value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
-
-/// Adds one flag per parameter field, named after the field with '-' for '_'.
-class FlagRegistrar {
- public:
-  explicit FlagRegistrar(po::options_description* options) : options_(options) {}
-
-  void number(const char* name, double& field, const char* unit, double lo, double hi,
-              const char* help) {
-    add(name,
-        po::value<double>(&field)
-            ->default_value(field, text(field))
-            ->value_name(*unit ? unit : "x"),
-        describe(help, unit, text(lo) + " .. " + text(hi)));
-  }
-  void integer(const char* name, int& field, const char* unit, int lo, int hi, const char* help) {
-    add(name, po::value<int>(&field)->default_value(field)->value_name(*unit ? unit : "n"),
-        describe(help, unit, text(lo) + " .. " + text(hi)));
-  }
-  void flag(const char* name, bool& field, const char* help) {
-    add(name, po::bool_switch(&field), help);
-  }
-  void choice(const char* name, std::string& field, const std::vector<std::string>& choices,
-              const char* help) {
-    add(name, po::value<std::string>(&field)->default_value(field)->value_name("name"),
-        describe(help, "", ccir_mapping::core::joinChoices(choices)));
-  }
-
- private:
-  static std::string describe(const char* help, const char* unit, const std::string& allowed) {
-    std::string out = help;
-    if (*unit) out += std::string(" [") + unit + "]";
-    return out + "; allowed " + allowed;
-  }
-  void add(const char* name, const po::value_semantic* semantic, const std::string& help) {
-    options_->add_options()(flagName(name).c_str(), semantic, help.c_str());
-  }
-  po::options_description* options_;
-};
 
 /// Writes the robots' recordings on `threads` threads; each robot's data depend only on the
 /// mission, so the result does not depend on the thread count.

@@ -43,6 +43,7 @@ class BrokerStage {
 
   /// The state CCIR weighs with (links, transforms, poses, c_k, uncertainty) goes straight in.
   CcirBroker& ccir() { return ccir_; }
+  const CcirBroker& ccir() const { return ccir_; }
 
   /// An own keyframe: its points (sensor frame), odometry pose and wire form of `size_bytes`;
   /// in fixed_rate and all it may go to every teammate now.

@@ -41,7 +41,7 @@ struct MissionParams {
   template <class Self, class Visitor>
   static void fields(Self& p, Visitor& v) {
     v.integer("seed", p.seed, "", 0, 2147483647, "seed of every random choice");
-    v.integer("robots", p.robots, "", 1, 50, "robots in the team");
+    v.integer("robots", p.robots, "", 1, 200, "robots in the team");
     v.integer("aerial_robots", p.aerial_robots, "", 0, 50,
               "how many of them fly (the last ones); the others drive");
     v.number("duration_s", p.duration_s, "s", 0.5, 7200.0, "mission length");

@@ -1,0 +1,103 @@
+// One robot of a team run: the stages its nodelets wrap (PlaceMatcher, TeamGraphWorker on the
+// caller's thread, MapStage, BrokerStage), chained as the nodelets' topics chain them, with the
+// messages to teammates collected in an outbox. Each call runs to the end before it returns, so
+// a run depends only on the order of the calls (core/runner/team_runner.h makes that order).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/information/map_stage.h"
+#include "ccir_mapping/core/place_recognition/place_matcher.h"
+#include "ccir_mapping/core/routing/broker_stage.h"
+#include "ccir_mapping/core/runner/keyframe_feed.h"
+#include "ccir_mapping/core/runner/runner_params.h"
+#include "ccir_mapping/core/runner/team_message.h"
+#include "ccir_mapping/core/team/team_graph_worker.h"
+
+namespace ccir_mapping::core::runner {
+
+class RobotPipeline {
+ public:
+  /// A message for one teammate, or ("") for every teammate linked at the time.
+  struct Outgoing {
+    double time_s = 0.0;
+    std::string peer;
+    TeamMessage message;
+  };
+
+  /// Throws std::invalid_argument when a stage's parameters are invalid.
+  RobotPipeline(std::string name, std::vector<std::string> peers, const RunnerParams& params,
+                std::shared_ptr<const place_recognition::PlaceModel> model);
+
+  const std::string& name() const { return name_; }
+
+  /// An own keyframe, at mission second `now_s`.
+  void onKeyframe(double now_s, const SimKeyframe& keyframe);
+  /// A teammate's message, as the inbox delivers it.
+  void onMessage(double now_s, const TeamMessage& message);
+  /// The periodic work due by `now_s`: the Broker's offer period, the Backend's optimisation,
+  /// the Mapper's rebuild.
+  void runTimers(double now_s);
+  /// LinkStats of the link to `peer`.
+  void setLink(const std::string& peer, const routing::LinkState& state);
+
+  /// What was sent since the last call, in order.
+  std::vector<Outgoing> takeOutbox();
+
+  /// The newest optimisation (empty before the first).
+  const team::BackendSnapshot& snapshot() const { return snapshot_; }
+  information::MapStage::Stats mapStats() const { return map_.stats(); }
+  routing::BrokerReport brokerReport() const { return broker_.ccir().report(); }
+  /// Loop closures this robot verified (own, with teammates), and refusals by kind.
+  int ownLoops() const { return own_loops_; }
+  int interRobotLoops() const { return inter_loops_; }
+  const std::map<std::string, std::uint64_t>& refusals() const { return refusals_; }
+  /// CPU seconds by stage, as the nodelets report them on diagnostics ("describe", "match",
+  /// "insert", "rebuild", "optimise", "footprint", "route", "codec").
+  std::map<std::string, double> stageCpu() const;
+  /// CPU seconds spent on threads other than the caller's (the Mapper's rebuilds).
+  double backgroundCpu() const;
+
+ private:
+  using Broker = routing::BrokerStage<std::shared_ptr<const WireScan>>;
+  struct Timer {
+    double period_s;
+    double next_s;
+    bool due(double now_s);
+  };
+
+  void send(double now_s, std::string peer, TeamMessage message);
+  void emit(double now_s, const Broker::Output& out);
+  /// Hands the best accepted candidate, if any, to the Backend as a loop closure (and to the
+  /// teammates when the Backend says so).
+  void closeLoop(double now_s, const std::vector<place_recognition::MatchCandidate>& candidates,
+                 const std::string& query_robot, KeyframeId query,
+                 const std::optional<Pose3>& query_odom_pose = {});
+  void onOptimized(const team::BackendSnapshot& snapshot, const team::TeamGraph& graph);
+  void onScan(double now_s, const WireScan& scan);
+  void refuse(const std::string& kind) { ++refusals_[kind]; }
+  /// Runs `work`, adding its thread's CPU seconds to `stage`.
+  template <class F>
+  decltype(auto) measured(const char* stage, F&& work);
+  void addCpu(const char* stage, double seconds);
+
+  const std::string name_;
+  mutable std::mutex cpu_mutex_;  // the Mapper's rebuild thread adds too: before map_
+  std::map<std::string, double> stage_cpu_;
+  place_recognition::PlaceMatcher matcher_;
+  information::MapStage map_;
+  Broker broker_;
+  std::unique_ptr<team::TeamGraphWorker> backend_;  // last: its hooks use the stages above
+  Timer offers_, optimisation_, map_update_;
+  team::BackendSnapshot snapshot_;
+  std::vector<Outgoing> outbox_;
+  double now_s_ = 0.0;  // of the call under way, for what the Backend's hooks send
+  int own_loops_ = 0, inter_loops_ = 0;
+  std::map<std::string, std::uint64_t> refusals_;
+};
+
+}  // namespace ccir_mapping::core::runner
