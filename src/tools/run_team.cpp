@@ -11,9 +11,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <sstream>
 #include <thread>
 
 #include <jsoncpp/json/json.h>
+#include <yaml-cpp/yaml.h>
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/runner/team_runner.h"
@@ -32,11 +35,39 @@ constexpr double kCorrectM = 0.3, kCorrectDeg = 2.0;
 
 struct Options {
   runner::RunnerParams params;
+  std::string mission_dir;
   std::string model_dir = CCIR_DEFAULT_MODEL_DIR;
   std::string out_dir;
   int threads = 1;
   double progress_period_s = 10.0;
 };
+
+/// Sets the mission flags from the command simulate_team recorded in DIR/mission.yaml; the
+/// error, if it cannot.
+std::optional<std::string> readMissionFlags(const std::string& dir,
+                                            const po::options_description& mission_flags) {
+  std::string command;
+  try {
+    command = YAML::LoadFile(dir + "/mission.yaml")["command"].as<std::string>();
+  } catch (const std::exception& e) {
+    return "cannot read the command of " + dir + "/mission.yaml: " + e.what();
+  }
+  std::istringstream words(command);
+  std::vector<std::string> tokens{std::istream_iterator<std::string>(words), {}};
+  if (tokens.empty() || tokens.front() != "simulate_team") {
+    return dir + "/mission.yaml: not a command of simulate_team: " + command;
+  }
+  tokens.erase(tokens.begin());
+  try {  // only the mission's flags; simulate_team's others (--out, --compression) do not matter
+    po::variables_map parsed;
+    po::store(po::command_line_parser(tokens).options(mission_flags).allow_unregistered().run(),
+              parsed);
+    po::notify(parsed);
+  } catch (const po::error& e) {
+    return dir + "/mission.yaml: " + e.what();
+  }
+  return std::nullopt;
+}
 
 std::optional<int> parse(int argc, char** argv, Options* o) {
   auto& p = o->params;
@@ -58,6 +89,9 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "Options",
       110);
   options.add_options()("help,h", "print this help and exit")(
+      "mission", po::value<std::string>(&o->mission_dir)->value_name("dir"),
+      "run the mission simulate_team wrote to DIR (its flags, from DIR/mission.yaml, make the "
+      "same mission again) instead of the mission flags below")(
       "out", po::value<std::string>(&o->out_dir)->value_name("dir"),
       "write DIR/report.json (summary and time series)")(
       "model-dir", po::value<std::string>(&o->model_dir)->default_value(o->model_dir),
@@ -103,12 +137,26 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "binds depends on the machine)")(
       "progress-period-s", po::value<double>(&o->progress_period_s)->default_value(10.0),
       "mission seconds between progress lines on stderr");
-  tools::FlagRegistrar registrar(&options);
+  po::options_description mission_flags("Mission (simulate_team's flags)", 110);
+  tools::FlagRegistrar registrar(&mission_flags);
   core::simulation::MissionParams::fields(p.mission, registrar);
-  if (const auto exit_code = tools::parseCommandLine("run_team", options, argc, argv)) {
+  options.add(mission_flags);
+  po::variables_map arguments;
+  if (const auto exit_code = tools::parseCommandLine("run_team", options, argc, argv, &arguments)) {
     return exit_code;
   }
   std::vector<std::string> errors;
+  if (!o->mission_dir.empty()) {
+    for (const auto& flag : mission_flags.options()) {
+      if (!arguments[flag->long_name()].defaulted()) {
+        return tools::usageError(
+            "run_team", "--" + flag->long_name() + " with --mission: the mission's flags decide");
+      }
+    }
+    if (const auto error = readMissionFlags(o->mission_dir, mission_flags)) {
+      return tools::usageError("run_team", "--mission: " + *error);
+    }
+  }
   if (const auto parsed = core::routing::parseRoutingMode(mode)) {
     p.broker.mode = *parsed;
   } else {
