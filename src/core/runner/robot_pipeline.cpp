@@ -99,16 +99,19 @@ bool RobotPipeline::Timer::due(double now_s) {
 
 RobotPipeline::RobotPipeline(std::string name, std::vector<std::string> peers,
                              const RunnerParams& params,
-                             std::shared_ptr<const pr::PlaceModel> model)
+                             std::shared_ptr<const pr::PlaceModel> model, double start_s,
+                             double phase)
     : name_(std::move(name)),
       matcher_(params.matcher, std::move(model)),
       map_(name_, params.mapper,
            {[this](const char* stage, const std::function<void()>& work) { measured(stage, work); },
             {}}),
       broker_(name_, std::move(peers), params.broker, params.mapper),
-      offers_{params.broker.offer_period_s, 0.0},
-      optimisation_{params.backend.optimize_period_s, 0.0},
-      map_update_{params.mapper.publish_period_s, 0.0} {
+      offers_{params.broker.offer_period_s, start_s + phase * params.broker.offer_period_s},
+      optimisation_{params.backend.optimize_period_s,
+                    start_s + phase * params.backend.optimize_period_s},
+      map_update_{params.mapper.publish_period_s,
+                  start_s + phase * params.mapper.publish_period_s} {
   information::SharedMap::registerMap(name_, map_.map());
   TeamGraphWorker::Hooks hooks;
   hooks.run = [this](const auto& batch) { return measured("optimise", batch); };

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <thread>
 
 #include <unistd.h>
@@ -120,10 +121,15 @@ TeamResult TeamRunner::run(const Progress& progress) {
   for (int i = 0; i < n; ++i) names.push_back(simulation::Mission::robotName(i));
   std::vector<std::unique_ptr<RobotPipeline>> robots;
   std::vector<std::unique_ptr<KeyframeFeed>> feeds;
+  // Each robot's timers tick at a phase of their own (drawn from the seed), as on separate
+  // masters: whether an offer is answered before the next one supersedes it depends on it.
+  std::mt19937_64 phases(static_cast<std::uint64_t>(params_.mission.seed) * 7919U + 17U);
   for (int i = 0; i < n; ++i) {
     std::vector<std::string> peers = names;
     peers.erase(peers.begin() + i);
-    robots.push_back(std::make_unique<RobotPipeline>(names[i], peers, params_, model_));
+    const double phase = std::uniform_real_distribution<double>(0.0, 1.0)(phases);
+    robots.push_back(
+        std::make_unique<RobotPipeline>(names[i], peers, params_, model_, start_s, phase));
   }
   for (int i = 0; i < n; ++i) {
     feeds.push_back(std::make_unique<KeyframeFeed>(mission, i, params_.preprocessor));

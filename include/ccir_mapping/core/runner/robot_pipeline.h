@@ -29,9 +29,12 @@ class RobotPipeline {
     TeamMessage message;
   };
 
-  /// Throws std::invalid_argument when a stage's parameters are invalid.
+  /// Its periodic work is first due at `start_s` plus `phase` (in [0, 1)) of each period: the
+  /// timers of robots on separate masters do not tick together. Throws std::invalid_argument
+  /// when a stage's parameters are invalid.
   RobotPipeline(std::string name, std::vector<std::string> peers, const RunnerParams& params,
-                std::shared_ptr<const place_recognition::PlaceModel> model);
+                std::shared_ptr<const place_recognition::PlaceModel> model, double start_s = 0.0,
+                double phase = 0.0);
 
   const std::string& name() const { return name_; }
 
