@@ -54,8 +54,8 @@ def score(run_dir):
     }
 
 
-def main():
-    out = sys.argv[1]
+def compare(out):
+    """The runs under `out` (ccir, all, fixed_rate_<n>) scored, and the match."""
     runs = {name: score(os.path.join(out, name)) for name in sorted(os.listdir(out))
             if os.path.exists(os.path.join(out, name, "report.json"))}
     ccir = runs.get("ccir")
@@ -79,7 +79,11 @@ def main():
               "ccir_known_volume_over_all": None if not ccir or "all" not in runs else {
                   r: round(v / max(1e-9, runs["all"]["known_volume_m3"][r]), 3)
                   for r, v in ccir["known_volume_m3"].items()}}
-    print(json.dumps(result, indent=2))
+    return result
+
+
+def main():
+    print(json.dumps(compare(sys.argv[1]), indent=2))
 
 
 if __name__ == "__main__":

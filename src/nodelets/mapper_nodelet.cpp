@@ -101,7 +101,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onTimer() {
-    stage_->rebuildIfDue();
+    stage_->rebuildIfDue(ros::SteadyTime::now().toSec());  // the cost is paid in wall time
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = settings_.frames.map_frame;

@@ -489,15 +489,15 @@ TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
     stage.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
     expected.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
   }
-  EXPECT_FALSE(stage.rebuildIfDue()) << "nothing moved";
+  EXPECT_FALSE(stage.rebuildIfDue(0.0)) << "nothing moved";
   stage.setOptimizedPoses({{2, at(4, 0.5, 2)}});
   expected.setOptimizedPoses({{2, at(4, 0.5, 2)}});
-  ASSERT_TRUE(stage.rebuildIfDue());
+  ASSERT_TRUE(stage.rebuildIfDue(0.0));
   {
     std::unique_lock<std::mutex> lock(mutex);
     ASSERT_TRUE(changed.wait_for(lock, std::chrono::seconds(60), [&] { return rebuilding; }));
   }
-  EXPECT_FALSE(stage.rebuildIfDue()) << "one rebuild at a time";
+  EXPECT_FALSE(stage.rebuildIfDue(100.0)) << "one rebuild at a time";
   stage.addOwn(3, cloud, at(6, 0));  // placed while the rebuild runs
   expected.addOwn(3, cloud, at(6, 0));
   EXPECT_FALSE(stage.addPeer("robot_b", 7, cloud, at(1, 1)));
@@ -524,6 +524,22 @@ TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
   EXPECT_NEAR(stats.entropy_bits, direct.boxEntropyBits(), 1e-6)
       << "the rebuilt map holds all three keyframes at their current poses";
   EXPECT_NEAR(stats.known_volume_m3, direct.boxKnownVolumeM3(), 1e-9);
+}
+
+TEST(MapStage, ARebuildWaitsInProportionToTheScansTheLastOnePlaced) {
+  MapperParams p = params();
+  p.rebuild_wait_s_per_scan = 10.0;
+  MapStage stage("robot_a", p);
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  for (Stamp stamp : {1, 2, 3}) stage.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
+  stage.setOptimizedPoses({{3, at(6, 0.5, 3)}});
+  ASSERT_TRUE(stage.rebuildIfDue(100.0)) << "the first rebuild waits for nothing";
+  stage.waitForRebuild();
+  stage.setOptimizedPoses({{3, at(6, 1.0, 3)}});
+  EXPECT_FALSE(stage.rebuildIfDue(129.0)) << "3 scans x 10 s: not before 130 s";
+  EXPECT_TRUE(stage.rebuildIfDue(130.0));
+  stage.waitForRebuild();
+  EXPECT_EQ(stage.stats().rebuilds, 2U);
 }
 
 TEST(ScanRanker, CoarsenedGainsSumPerBlock) {

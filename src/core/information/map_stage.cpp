@@ -64,12 +64,20 @@ void MapStage::insert(const std::vector<PlacedScan>& scans) {
     placed_during_rebuild_.insert(placed_during_rebuild_.end(), scans.begin(), scans.end());
 }
 
-bool MapStage::rebuildIfDue() {
+bool MapStage::rebuildIfDue(double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (rebuilding_ || !keyframes_.rebuildDue()) return false;
+  if (last_rebuild_scans_ > 0 &&
+      now_s - last_rebuild_s_ <
+          params_.rebuild_wait_s_per_scan * static_cast<double>(last_rebuild_scans_)) {
+    return false;
+  }
   if (rebuild_thread_.joinable()) rebuild_thread_.join();
   rebuilding_ = true;
-  rebuild_thread_ = std::thread([this, scans = keyframes_.placeAll()] {
+  auto scans = keyframes_.placeAll();
+  last_rebuild_s_ = now_s;
+  last_rebuild_scans_ = scans.size();
+  rebuild_thread_ = std::thread([this, scans = std::move(scans)] {
     const auto start = std::chrono::steady_clock::now();
     auto fresh = std::make_unique<OccupancyMap>(params_);
     hooks_.run("rebuild", [&] {

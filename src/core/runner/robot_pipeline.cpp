@@ -239,7 +239,7 @@ void RobotPipeline::runTimers(double now_s) {
   now_s_ = now_s;
   if (optimisation_.due(now_s)) backend_->tick();
   if (map_update_.due(now_s)) {
-    map_.rebuildIfDue();
+    map_.rebuildIfDue(now_s);
     map_.waitForRebuild();  // here, not beside the next steps: a run must not depend on timing
   }
   if (offers_.due(now_s)) {

@@ -65,8 +65,11 @@ class MapStage {
                     const std::vector<std::pair<KeyframeId, Pose3>>& poses);
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
-  /// Starts a rebuild when one is due and none is under way; true when it started.
-  bool rebuildIfDue();
+  /// Starts a rebuild when one is due, none is under way and rebuild_wait_s_per_scan times the
+  /// scans of the last rebuild have passed since it started (`now_s`: seconds on the clock its
+  /// cost is paid in: the wall clock of a robot, simulated time of a simulated one); true when
+  /// it started.
+  bool rebuildIfDue(double now_s);
   /// Returns once no rebuild is under way.
   void waitForRebuild();
   /// Writes the map (OctoMap .bt) as it is once a rebuild under way is done; false when the
@@ -87,6 +90,8 @@ class MapStage {
   std::condition_variable rebuild_done_;
   std::vector<PlacedScan> placed_during_rebuild_;
   std::uint32_t rebuilds_ = 0;
+  double last_rebuild_s_ = 0.0;
+  std::size_t last_rebuild_scans_ = 0;  // 0 before the first rebuild
   std::thread rebuild_thread_;
 };
 
