@@ -4,9 +4,11 @@ summarised as tables (Markdown) and plots (PNG, matplotlib). One subcommand per 
 writes its runs under OUT/<config>/<run>/report.json (a run already there is not run again) and
 its summary as OUT/results.md and OUT/*.png."""
 import argparse
+import glob
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -29,6 +31,24 @@ WORLD_FLAGS = {
 UNTHROTTLED = 1e8  # bytes/s: fixed rates and `all` are measured, not held (Table 3.1)
 
 
+def snapshot(args):
+    """Copies run_team and the package's libraries to OUT/bin (once), so that a rebuild while the
+    experiment runs changes nothing in it; records the commit they were built from."""
+    bin_dir = os.path.join(args.out, "bin")
+    if not os.path.exists(os.path.join(bin_dir, "run_team")):
+        os.makedirs(bin_dir, exist_ok=True)
+        lib_dir = os.path.dirname(os.path.dirname(os.path.realpath(args.run_team)))
+        for lib in glob.glob(os.path.join(lib_dir, "libccir_mapping_*.so")):
+            shutil.copy2(lib, bin_dir)
+        shutil.copy2(args.run_team, bin_dir)
+        commit = subprocess.run(["git", "-C", os.path.dirname(os.path.realpath(__file__)),
+                                 "describe", "--always", "--dirty"], capture_output=True,
+                                text=True).stdout.strip()
+        json.dump({"commit": commit}, open(os.path.join(bin_dir, "provenance.json"), "w"))
+    args.run_team = os.path.join(bin_dir, "run_team")
+    args.env = dict(os.environ, LD_LIBRARY_PATH=bin_dir)  # before the RUNPATH of the build
+
+
 def run_team(args, run_dir, flags):
     """Runs run_team into run_dir unless its report is there; returns the report."""
     report = os.path.join(run_dir, "report.json")
@@ -37,7 +57,7 @@ def run_team(args, run_dir, flags):
         started = time.monotonic()
         with open(os.path.join(run_dir, "run_team.log"), "w") as log:
             done = subprocess.run([args.run_team, "--out", run_dir, "--threads", str(args.threads)]
-                                  + flags, stdout=subprocess.DEVNULL, stderr=log)
+                                  + flags, stdout=subprocess.DEVNULL, stderr=log, env=args.env)
         if done.returncode != 0:
             sys.exit("run_team failed: see %s/run_team.log" % run_dir)
         print("[experiments] %s: %.0f s" % (os.path.relpath(run_dir, args.out),
@@ -193,9 +213,104 @@ def plot_naive(out, shares):
     plt.close(fig)
 
 
+def scale(args):
+    """Team sizes with radio-range links: growth per robot of bytes, messages, CPU and memory."""
+    rows, points = [], []
+    for robots in [int(n) for n in args.robots.split(",")]:
+        name = "mine-%dr-radio" % robots
+        report = run_team(args, os.path.join(args.out, name), WORLD_FLAGS["mine"][:2] + [
+            "--mine-pillars-x", str(args.pillars), "--mine-pillars-y", str(args.pillars),
+            "--robots", str(robots), "--seed", args.seeds.split(",")[0],
+            "--duration-s", str(args.duration_s), "--overlap", "1",
+            "--start-interval-s", str(args.start_window_s / robots),
+            "--topology", "radio_range", "--radio-range-m", str(args.radio_range_m),
+            "--max-peers", str(args.max_peers), "--line-of-sight",
+            "--budget-bytes-per-s", str(args.budget_bytes_per_s), "--mode", "ccir"])
+        d, n = report["duration_s"], len(report["robots"])
+        sent = sum(l["bytes_sent"] for r in report["robots"] for l in r["links"].values())
+        messages = sum(l["messages_sent"] for r in report["robots"] for l in r["links"].values())
+        cpu = sum(r["cpu_s"]["pipeline"] + r["cpu_s"]["recording_and_preprocessing"]
+                  for r in report["robots"])
+        steps = d / 0.1
+        peers = sum(report.get("link_up_steps", {}).values()) / steps / n
+        transforms = sum(1 for r in report["robots"] for t in r["team_frames"] if t["valid"])
+        point = {"robots": n, "kb_per_s_per_robot": sent / 1e3 / d / n,
+                 "messages_per_s_per_robot": messages / d / n,
+                 "cpu_core_share_per_robot": cpu / d / n,
+                 "resident_mb_per_robot": report["peak_resident_mb"] / n,
+                 "linked_peers_per_robot": peers, "transforms_per_robot": transforms / n,
+                 "worst_1s_on_a_link_kb": worst_window(report) / 1e3,
+                 "robot_s_per_cpu_s": report["robot_s_per_cpu_s"], "wall_s": report["wall_s"]}
+        points.append(point)
+        rows.append("| %d | %.1f | %.1f | %.2f | %.0f | %.1f | %.1f | %.0f |" % (
+            n, point["kb_per_s_per_robot"], point["messages_per_s_per_robot"],
+            point["cpu_core_share_per_robot"], point["resident_mb_per_robot"],
+            point["linked_peers_per_robot"], point["transforms_per_robot"],
+            point["worst_1s_on_a_link_kb"]))
+    fig, axes = plt.subplots(1, 4, figsize=(16, 3.5))
+    for ax, key, title in zip(axes, ["kb_per_s_per_robot", "messages_per_s_per_robot",
+                                     "cpu_core_share_per_robot", "resident_mb_per_robot"],
+                              ["KB/s sent per robot", "messages/s per robot",
+                               "CPU per robot (cores)", "resident MB per robot"]):
+        ax.plot([p["robots"] for p in points], [p[key] for p in points], "o-")
+        ax.set_xlabel("robots")
+        ax.set_title(title)
+        ax.set_ylim(bottom=0)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "scale.png"), dpi=80)
+    plt.close(fig)
+    lines = ["| robots | KB/s sent per robot | messages/s per robot | CPU per robot, cores |"
+             " resident MB per robot | linked teammates (mean) | transforms known per robot |"
+             " worst 1 s on a link, KB |", "|---|---|---|---|---|---|---|---|"] + rows
+    with open(os.path.join(args.out, "results.md"), "w") as f:
+        f.write("\n".join(lines) + "\n\n```\n" + json.dumps(points, indent=2) + "\n```\n")
+    print("\n".join(lines))
+
+
+def long_mission(args):
+    """A long 3-robot mission: CPU and resident memory per robot over time."""
+    report = run_team(args, os.path.join(args.out, "long"), [
+        "--world", "mine", "--robots", "3", "--seed", args.seeds.split(",")[0],
+        "--duration-s", str(args.duration_s), "--overlap", str(args.overlap),
+        "--budget-bytes-per-s", str(args.budget_bytes_per_s), "--mode", "ccir",
+        "--series-period-s", "10"])
+    n = len(report["robots"])
+    fig, axes = plt.subplots(1, 3, figsize=(15, 3.5))
+    summary = {"robots": {}}
+    for r in report["robots"]:
+        rows = r["cpu_series"]
+        t = [b[0] for a, b in zip(rows, rows[1:])]
+        share = [(b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(rows, rows[1:])]
+        axes[0].plot(t, share, label=r["name"])
+        axes[2].plot([x[0] for x in r["map_series"]], [x[1] for x in r["map_series"]],
+                     label=r["name"])
+        summary["robots"][r["name"]] = {
+            "keyframes": r["keyframes"], "mean_core_share": rows[-1][1] / rows[-1][0],
+            "core_share_last_minute": (rows[-1][1] - next(c for tt, c in reversed(rows)
+                                                          if tt <= rows[-1][0] - 60)) / 60,
+            "stage_cpu_s": r["stage_cpu_s"], "map": r["map"]}
+    memory = report["memory_series"]
+    axes[1].plot([m[0] for m in memory], [m[1] / 1e6 / n for m in memory])
+    at5 = next((m[1] for m in memory if m[0] >= 300), memory[-1][1])
+    summary["resident_mb_per_robot"] = {"at_5_min": at5 / 1e6 / n, "at_end": memory[-1][1] / 1e6 / n}
+    summary["duration_s"] = report["duration_s"]
+    for ax, title in zip(axes, ["CPU per robot (cores, 10 s windows)", "resident MB per robot",
+                                "known volume, m³"]):
+        ax.set_title(title)
+        ax.set_xlabel("mission s")
+        ax.set_ylim(bottom=0)
+    axes[0].legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "long_mission.png"), dpi=80)
+    plt.close(fig)
+    with open(os.path.join(args.out, "results.md"), "w") as f:
+        f.write("```\n" + json.dumps(summary, indent=2) + "\n```\n")
+    print(json.dumps(summary, indent=2))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("experiment", choices=["ccir_vs_fixed_rate"])
+    parser.add_argument("experiment", choices=["ccir_vs_fixed_rate", "scale", "long_mission"])
     parser.add_argument("out")
     parser.add_argument("--run-team", required=True)
     parser.add_argument("--worlds", default="mine,building,cave,cluttered")
@@ -205,10 +320,19 @@ def main():
     parser.add_argument("--budget-bytes-per-s", type=float, default=150000.0)
     parser.add_argument("--every-n", default="13,8,5,3,2")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
+    # scale
+    parser.add_argument("--pillars", type=int, default=6)
+    parser.add_argument("--start-window-s", type=float, default=20.0)
+    parser.add_argument("--radio-range-m", type=float, default=30.0)
+    parser.add_argument("--max-peers", type=int, default=8)
+    # long_mission
+    parser.add_argument("--overlap", type=float, default=0.5)
     args = parser.parse_args()
     args.out = os.path.abspath(args.out)
     os.makedirs(args.out, exist_ok=True)
-    {"ccir_vs_fixed_rate": ccir_vs_fixed_rate}[args.experiment](args)
+    snapshot(args)
+    {"ccir_vs_fixed_rate": ccir_vs_fixed_rate, "scale": scale,
+     "long_mission": long_mission}[args.experiment](args)
 
 
 if __name__ == "__main__":
