@@ -146,6 +146,7 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("min_correspondences", p.min_correspondences);
   reader.read("loop_exclusion_s", p.loop_exclusion_s);
   reader.read("max_candidates", p.max_candidates);
+  reader.read("complete_places", p.complete_places);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);
   auto& v = p.verification;

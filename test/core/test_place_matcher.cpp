@@ -242,6 +242,40 @@ TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
   EXPECT_EQ(bestAccepted(matcher.matchKeptScans(keyframe(matcher, 3, 101.0, 2))), nullptr);
 }
 
+TEST_F(PlaceMatcherTest, PlacesCompactedAndMadeReadyAgainVerifyAsBefore) {
+  // The same own and teammate queries with every place ready, and with one place ready (the
+  // others compacted, completed again when ranked): the same candidates and figures.
+  std::vector<std::vector<MatchCandidate>> results[2];
+  for (const int complete : {100, 1}) {
+    MatcherParams params;
+    params.complete_places = complete;
+    PlaceMatcher matcher(params, model_);
+    auto& out = results[complete == 1];
+    for (KeyframeId id = 0; id < 6; ++id) {
+      out.push_back(matcher.addOwn(keyframe(matcher, id, 40.0 * double(id), int(id % 3))));
+    }
+    matcher.keepTeammateScan("robot_b", keyframe(matcher, 42, 1.0, 1));
+    out.push_back(matcher.matchTeammate(keyframe(matcher, 7, 300.0, 2)));
+    out.push_back(matcher.matchKeptScans(keyframe(matcher, 8, 301.0, 1)));
+  }
+  ASSERT_EQ(results[0].size(), results[1].size());
+  int accepted = 0;
+  for (std::size_t q = 0; q < results[0].size(); ++q) {
+    ASSERT_EQ(results[0][q].size(), results[1][q].size()) << "query " << q;
+    for (std::size_t c = 0; c < results[0][q].size(); ++c) {
+      const auto& a = results[0][q][c].verification;
+      const auto& b = results[1][q][c].verification;
+      EXPECT_EQ(results[0][q][c].keyframe, results[1][q][c].keyframe);
+      EXPECT_EQ(a.accepted, b.accepted);
+      EXPECT_EQ(a.inliers, b.inliers);
+      EXPECT_EQ(a.fitness_m2, b.fitness_m2);
+      EXPECT_TRUE(a.relative.isApprox(b.relative, 1e-12));
+      accepted += a.accepted;
+    }
+  }
+  EXPECT_GT(accepted, 3) << "the scenario must verify something";
+}
+
 TEST_F(PlaceMatcherTest, CorrespondencesCountSharedWordsAboveTheMinimum) {
   MatcherParams params;
   params.min_correspondences = 3;

@@ -19,6 +19,7 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inRange("min_correspondences", min_correspondences, 0, 10000);
   check.inRange("loop_exclusion_s", loop_exclusion_s, 0.0, 3600.0);
   check.inRange("max_candidates", max_candidates, 1, 1000);
+  check.inRange("complete_places", complete_places, 1, 1000000);
   check.inRange("own_loop_gate_m_per_m", own_loop_gate_m_per_m, 0.0, 10.0);
   check.inRange("own_loop_gate_rad_per_m", own_loop_gate_rad_per_m, 0.0, 10.0);
   auto errors = check.errors();

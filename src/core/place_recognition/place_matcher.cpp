@@ -199,7 +199,7 @@ std::vector<PlaceMatcher::TeammateCorrespondence> PlaceMatcher::teammateCorrespo
 }
 
 std::vector<MatchCandidate> PlaceMatcher::match(
-    const PlaceSet& set, const DescribedKeyframe& query,
+    PlaceSet& set, const DescribedKeyframe& query,
     const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {
   const std::vector<int> shared = set.fabmap.sharedWords(query.words);
   // Ranked places: (index, score).
@@ -229,8 +229,9 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     c.keyframe = place.id;
     c.score = score;
     c.correspondences = shared[index];
-    c.verification = query_is_from ? verifier_.verify(query.scan, place.scan)
-                                   : verifier_.verify(place.scan, query.scan);
+    const registration::PreparedScan& scan = ready(set, index);
+    c.verification =
+        query_is_from ? verifier_.verify(query.scan, scan) : verifier_.verify(scan, query.scan);
     candidates.push_back(std::move(c));
   }
   return candidates;
@@ -264,6 +265,7 @@ std::vector<MatchCandidate> PlaceMatcher::addOwn(DescribedKeyframe keyframe) {
       *own_, keyframe, [newest](const DescribedKeyframe& k) { return k.stamp <= newest; }, false);
   for (auto& c : candidates) gateByOdometry(keyframe, c);
   own_->add("", std::move(keyframe));
+  remember(*own_, own_->places.size() - 1);
   return candidates;
 }
 
@@ -274,6 +276,25 @@ std::vector<MatchCandidate> PlaceMatcher::matchTeammate(const DescribedKeyframe&
 
 void PlaceMatcher::keepTeammateScan(const std::string& robot, DescribedKeyframe keyframe) {
   kept_->add(robot, std::move(keyframe));
+  remember(*kept_, kept_->places.size() - 1);
+}
+
+const registration::PreparedScan& PlaceMatcher::ready(PlaceSet& set, std::size_t index) const {
+  verifier_.complete(set.places[index].scan);
+  remember(set, index);
+  return set.places[index].scan;
+}
+
+void PlaceMatcher::remember(PlaceSet& set, std::size_t index) const {
+  const std::pair<PlaceSet*, std::size_t> place{&set, index};
+  const auto it = std::find(recent_.begin(), recent_.end(), place);
+  if (it != recent_.end()) recent_.erase(it);
+  recent_.push_back(place);
+  while (recent_.size() > static_cast<std::size_t>(params_.complete_places)) {
+    const auto [oldest_set, oldest] = recent_.front();
+    registration::ScanVerifier::compact(oldest_set->places[oldest].scan);
+    recent_.pop_front();
+  }
 }
 
 std::vector<MatchCandidate> PlaceMatcher::matchKeptScans(const DescribedKeyframe& keyframe) const {

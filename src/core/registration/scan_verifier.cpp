@@ -154,6 +154,23 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
   }
   PreparedScan scan;
   scan.cloud = prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m);
+  scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
+  scan.features = std::move(features);
+  complete(scan);
+  return scan;
+}
+
+void ScanVerifier::compact(PreparedScan& scan) {
+  scan.cloud_tree.reset();
+  scan.covariances.reset();
+  scan.source.reset();
+  scan.source_tree.reset();
+  scan.source_covariances.reset();
+  scan.walls_tree.reset();
+}
+
+void ScanVerifier::complete(PreparedScan& scan) const {
+  if (isComplete(scan)) return;
   scan.cloud_tree = pcl::make_shared<PreparedScan::Tree>();
   scan.covariances = std::make_shared<PreparedScan::Covariances>();
   auto source = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
@@ -170,15 +187,15 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
     scan.source_tree->setInputCloud(source);
   }
   scan.source = source;
-  scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.walls_tree = pcl::make_shared<PreparedScan::Tree>();
   if (!scan.walls->empty()) scan.walls_tree->setInputCloud(scan.walls);
-  scan.features = std::move(features);
-  return scan;
 }
 
 Verification ScanVerifier::verify(const PreparedScan& from_scan,
                                   const PreparedScan& to_scan) const {
+  if (!isComplete(from_scan) || !isComplete(to_scan)) {
+    throw std::invalid_argument("ScanVerifier::verify: a compacted scan (complete() it first)");
+  }
   const features::LocalFeatures& from = from_scan.features;
   const features::LocalFeatures& to = to_scan.features;
   Verification v;

@@ -28,6 +28,11 @@ struct MatcherParams {
   /// Best-ranked places of each query that are geometrically verified. Verification is cheap
   /// (~6 ms on a simulated keyframe) and in an aliased mine the true place is rarely first.
   int max_candidates = 20;
+  /// Places (own keyframes and teammates' scans) kept ready for verification, the most
+  /// recently used: the others keep ~1/10 of it (their clouds and features, ~0.15 MB) and are
+  /// made ready again when a query ranks them (~10 ms), so the Matcher's memory grows by that
+  /// per place instead of ~1.5 MB.
+  int complete_places = 100;
   /// Own loop closures must agree with odometry within 1 m + this x the path between the two
   /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
   double own_loop_gate_m_per_m = 0.1;

@@ -4,6 +4,7 @@
 // candidates are verified geometrically.
 #pragma once
 
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -137,10 +138,15 @@ class PlaceMatcher {
 
   /// Verified candidates among `set`'s places accepted by `eligible`, best-ranked first;
   /// `query_is_from`: the query is the own keyframe ("from") rather than the place.
-  std::vector<MatchCandidate> match(const PlaceSet& set, const DescribedKeyframe& query,
+  std::vector<MatchCandidate> match(PlaceSet& set, const DescribedKeyframe& query,
                                     const std::function<bool(const DescribedKeyframe&)>& eligible,
                                     bool query_is_from) const;
   void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
+  /// The place's scan, complete for verification (ScanVerifier::complete).
+  const registration::PreparedScan& ready(PlaceSet& set, std::size_t index) const;
+  /// Marks the place as used last; the least recently used beyond complete_places are
+  /// compacted (ScanVerifier::compact), which bounds the matcher's memory.
+  void remember(PlaceSet& set, std::size_t index) const;
 
   MatcherParams params_;
   std::shared_ptr<const PlaceModel> model_;
@@ -152,6 +158,8 @@ class PlaceMatcher {
   /// Teammates' word sets by robot and keyframe.
   std::map<std::string, std::map<KeyframeId, WordSet>> teammate_words_;
   double path_m_ = 0.0;  // odometry path length of the own keyframes so far
+  /// Places whose scans are complete, least recently used first (own and teammates').
+  mutable std::deque<std::pair<PlaceSet*, std::size_t>> recent_;
 };
 
 }  // namespace ccir_mapping::core::place_recognition

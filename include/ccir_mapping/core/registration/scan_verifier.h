@@ -66,6 +66,11 @@ class ScanVerifier {
 
   PreparedScan prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                        features::LocalFeatures features) const;
+  /// What a prepared scan keeps while it waits (its clouds and features, ~1/10 of it): the
+  /// search trees, covariances and GICP source go, and complete() makes them again.
+  static void compact(PreparedScan& scan);
+  static bool isComplete(const PreparedScan& scan) { return scan.cloud_tree != nullptr; }
+  void complete(PreparedScan& scan) const;
 
   Verification verify(const PreparedScan& from, const PreparedScan& to) const;
   Verification verify(const pcl::PointCloud<pcl::PointXYZINormal>& from_cloud,
