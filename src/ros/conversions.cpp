@@ -484,11 +484,7 @@ std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* ou
   if (auto error = toKeyframeCloud(keyframe.cloud, &cloud)) return error;
   const auto pose = toPose(keyframe.odom_pose);
   if (!pose) return "odom_pose is not finite";
-  std::vector<core::transport::ScanPoint> points(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const auto& p = cloud[i];
-    points[i] = {p.x, p.y, p.z, p.normal_x, p.normal_y, p.normal_z, p.intensity};
-  }
+  const auto points = core::transport::scanPointsOf(cloud);
   if (xyz) pcl::copyPointCloud(cloud, *xyz);
   if (odom_pose) *odom_pose = *pose;
   std::string error;
@@ -514,18 +510,7 @@ std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_po
   if (points->size() != scan.point_count) return std::string("point_count does not match points");
   if (!toPose(scan.odom_pose)) return std::string("odom_pose is not finite");
   pcl::PointCloud<pcl::PointXYZINormal> cloud;
-  cloud.resize(points->size());
-  for (std::size_t i = 0; i < points->size(); ++i) {
-    const auto& p = (*points)[i];
-    auto& q = cloud[i];
-    q.x = p.x;
-    q.y = p.y;
-    q.z = p.z;
-    q.normal_x = p.normal_x;
-    q.normal_y = p.normal_y;
-    q.normal_z = p.normal_z;
-    q.intensity = p.intensity;
-  }
+  core::transport::cloudOf(*points, &cloud);
   pcl::toROSMsg(cloud, out->cloud);
   out->header = scan.header;
   out->cloud.header = scan.header;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "ccir_mapping/core/transport/compression.h"
@@ -67,6 +68,24 @@ TEST(ScanCodec, RoundTripKeepsGeometryWithinTheQuantisation) {
   const double ratio = double(encoded->size()) / (48.0 * points.size());
   EXPECT_LT(ratio, 0.2) << encoded->size() << " bytes for " << points.size() << " points";
   RecordProperty("bytes_per_point", std::to_string(double(encoded->size()) / points.size()));
+}
+
+TEST(ScanCodec, CloudsConvertToScanPointsAndBackFieldByField) {
+  struct Point {
+    float x, y, z, normal_x, normal_y, normal_z, intensity;
+  };
+  std::vector<Point> cloud = {{1, 2, 3, 0, 0, 1, 7}, {-4, 5.5F, 6, 1, 0, 0, 255}};
+  const std::vector<ScanPoint> points = scanPointsOf(cloud);
+  ASSERT_EQ(points.size(), 2U);
+  EXPECT_EQ(points[1].y, 5.5F);
+  EXPECT_EQ(points[0].normal_z, 1.0F);
+  EXPECT_EQ(points[1].intensity, 255.0F);
+  std::vector<Point> back;
+  cloudOf(points, &back);
+  ASSERT_EQ(back.size(), 2U);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(std::memcmp(&back[i], &cloud[i], sizeof(Point)), 0) << i;
+  }
 }
 
 TEST(ScanCodec, EmptyScanRoundTrips) {

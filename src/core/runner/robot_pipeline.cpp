@@ -14,13 +14,9 @@ namespace {
 
 using KeyframeCloud = pcl::PointCloud<pcl::PointXYZINormal>;
 
-/// The wire form the Broker sends (conversions::toSharedScan does the same for a Keyframe).
+/// The wire form the Broker sends (as conversions::toSharedScan makes it of a Keyframe).
 std::shared_ptr<const WireScan> toWireScan(const std::string& robot, const SimKeyframe& keyframe) {
-  std::vector<transport::ScanPoint> points(keyframe.cloud->size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const auto& p = (*keyframe.cloud)[i];
-    points[i] = {p.x, p.y, p.z, p.normal_x, p.normal_y, p.normal_z, p.intensity};
-  }
+  const auto points = transport::scanPointsOf(*keyframe.cloud);
   std::string error;
   auto encoded = transport::encodeScan(points, &error);
   if (!encoded) throw std::runtime_error("cannot encode keyframe of " + robot + ": " + error);
@@ -36,23 +32,12 @@ std::shared_ptr<const WireScan> toWireScan(const std::string& robot, const SimKe
   return scan;
 }
 
-/// The points of a wire form (conversions::toKeyframe does the same for a SharedScan).
+/// The points of a wire form (as conversions::toKeyframe reads a SharedScan).
 std::optional<KeyframeCloud> toCloud(const WireScan& scan, std::string* error) {
   const auto points = transport::decodeScan(scan.points, scan.point_count, error);
   if (!points) return std::nullopt;
   KeyframeCloud cloud;
-  cloud.resize(points->size());
-  for (std::size_t i = 0; i < points->size(); ++i) {
-    const auto& p = (*points)[i];
-    auto& q = cloud[i];
-    q.x = p.x;
-    q.y = p.y;
-    q.z = p.z;
-    q.normal_x = p.normal_x;
-    q.normal_y = p.normal_y;
-    q.normal_z = p.normal_z;
-    q.intensity = p.intensity;
-  }
+  transport::cloudOf(*points, &cloud);
   return cloud;
 }
 
@@ -149,7 +134,6 @@ void RobotPipeline::emit(double now_s, const Broker::Output& out) {
 }
 
 void RobotPipeline::onKeyframe(double now_s, const SimKeyframe& keyframe) {
-  now_s_ = now_s;
   const KeyframeId id = keyframe.decision.id;
   // Backend first: a loop closure found with this keyframe needs its node.
   backend_->add(TeamGraphWorker::OwnKeyframe{name_, id, keyframe.stamp, keyframe.odom_pose});
@@ -193,7 +177,6 @@ void RobotPipeline::closeLoop(double now_s, const std::vector<pr::MatchCandidate
 }
 
 void RobotPipeline::onMessage(double now_s, const TeamMessage& message) {
-  now_s_ = now_s;
   if (const auto* words = std::get_if<WordsMessage>(&message)) {
     if (const auto problem = matcher_.wordsProblem(words->vocabulary_hash, words->words)) {
       return refuse("features (" + problem->kind + ")");
@@ -236,7 +219,6 @@ void RobotPipeline::onScan(double now_s, const WireScan& scan) {
 }
 
 void RobotPipeline::runTimers(double now_s) {
-  now_s_ = now_s;
   if (optimisation_.due(now_s)) backend_->tick();
   if (map_update_.due(now_s)) {
     map_.rebuildIfDue(now_s);

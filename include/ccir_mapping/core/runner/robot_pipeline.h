@@ -98,7 +98,6 @@ class RobotPipeline {
   Timer offers_, optimisation_, map_update_;
   team::BackendSnapshot snapshot_;
   std::vector<Outgoing> outbox_;
-  double now_s_ = 0.0;  // of the call under way, for what the Backend's hooks send
   int own_loops_ = 0, inter_loops_ = 0;
   std::map<std::string, std::uint64_t> refusals_;
 };

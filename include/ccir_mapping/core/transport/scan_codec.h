@@ -24,6 +24,35 @@ struct ScanPoint {
   float intensity = 0;
 };
 
+/// The points of a cloud with x y z, normal_x/y/z and intensity (a PCL PointXYZINormal cloud:
+/// anything with size() and operator[]), in the codec's layout.
+template <class Cloud>
+std::vector<ScanPoint> scanPointsOf(const Cloud& cloud) {
+  std::vector<ScanPoint> points(cloud.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto& p = cloud[i];
+    points[i] = {p.x, p.y, p.z, p.normal_x, p.normal_y, p.normal_z, p.intensity};
+  }
+  return points;
+}
+
+/// The same back into such a cloud (resized to the points).
+template <class Cloud>
+void cloudOf(const std::vector<ScanPoint>& points, Cloud* cloud) {
+  cloud->resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const ScanPoint& p = points[i];
+    auto& q = (*cloud)[i];
+    q.x = p.x;
+    q.y = p.y;
+    q.z = p.z;
+    q.normal_x = p.normal_x;
+    q.normal_y = p.normal_y;
+    q.normal_z = p.normal_z;
+    q.intensity = p.intensity;
+  }
+}
+
 /// Steps of the quantisation (the largest error is half of each).
 constexpr double kScanPositionStepM = 0.001;
 constexpr double kScanNormalStep = 1.0 / 127.0;
