@@ -231,8 +231,7 @@ def scale(args):
         messages = sum(l["messages_sent"] for r in report["robots"] for l in r["links"].values())
         cpu = sum(r["cpu_s"]["pipeline"] + r["cpu_s"]["recording_and_preprocessing"]
                   for r in report["robots"])
-        steps = d / 0.1
-        peers = sum(report.get("link_up_steps", {}).values()) / steps / n
+        peers = sum(report.get("link_up_s", {}).values()) / d / n
         transforms = sum(1 for r in report["robots"] for t in r["team_frames"] if t["valid"])
         point = {"robots": n, "kb_per_s_per_robot": sent / 1e3 / d / n,
                  "messages_per_s_per_robot": messages / d / n,

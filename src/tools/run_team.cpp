@@ -338,6 +338,7 @@ Json::Value reportJson(const Options& o, const runner::TeamResult& result, bool 
   std::uint64_t peak_rss = 0;
   for (const auto& [t, rss] : result.memory_series) peak_rss = std::max(peak_rss, rss);
   j["peak_resident_mb"] = round3(double(peak_rss) / 1e6);
+  for (const auto& [link, s] : result.link_up_s) j["link_up_s"][link] = round3(s);
   j["robots"] = Json::arrayValue;
   for (const auto& r : result.robots) j["robots"].append(robotJson(r, p, series));
   if (series) {

@@ -136,6 +136,22 @@ TEST(TeamRunner, FixedRateSendsEveryNthKeyframe) {
   }
 }
 
+TEST(TeamRunner, RadioRangeLinksRobotsOnlyWithinRange) {
+  RunnerParams params = smallMission(routing::RoutingMode::kAll);
+  params.topology = Topology::kRadioRange;
+  params.radio_range_m = 1e4;  // the whole mine
+  const TeamResult near = TeamRunner(params, model()).run();
+  EXPECT_NEAR(near.link_up_s.at("robot_a->robot_b"), params.mission.duration_s, 1e-6);
+  EXPECT_GT(near.robots[0].links.at("robot_b").bytes_sent, 0U);
+  params.radio_range_m = 0.0;  // never within range
+  const TeamResult apart = TeamRunner(params, model()).run();
+  EXPECT_TRUE(apart.link_up_s.empty());
+  for (const auto& robot : apart.robots) {
+    EXPECT_EQ(robot.broker.scans_received, 0U) << robot.name;
+    for (const auto& [peer, link] : robot.links) EXPECT_EQ(link.bytes_sent, 0U) << peer;
+  }
+}
+
 TEST(TeamRunner, RefusesInvalidParametersNamingThem) {
   RunnerParams p;
   p.step_s = 0.0;

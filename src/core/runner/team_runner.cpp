@@ -8,6 +8,7 @@
 #include <limits>
 #include <random>
 #include <thread>
+#include <tuple>
 
 #include <unistd.h>
 
@@ -164,26 +165,30 @@ TeamResult TeamRunner::run(const Progress& progress) {
     if (params_.topology == Topology::kAllPairs) return;
     std::vector<Eigen::Vector3d> at;
     for (int i = 0; i < n; ++i) at.push_back(positionAt(i, t_s));
-    std::vector<std::vector<char>> near(n, std::vector<char>(n, 0));
+    // Pairs in range, nearest first, each taken while both have fewer than max_peers links.
+    std::vector<std::tuple<double, int, int>> in_range;
     for (int i = 0; i < n; ++i) {
-      std::vector<std::pair<double, int>> in_range;
-      for (int j = 0; j < n; ++j) {
+      for (int j = i + 1; j < n; ++j) {
         const double d = (at[j] - at[i]).norm();
-        if (j == i || d > params_.radio_range_m) continue;
+        if (d > params_.radio_range_m) continue;
         if (params_.radio_needs_line_of_sight && d > 1e-6 &&
             mission.world().castRay({at[i], (at[j] - at[i]) / d}, d)) {
           continue;
         }
-        in_range.emplace_back(d, j);
+        in_range.emplace_back(d, i, j);
       }
-      std::sort(in_range.begin(), in_range.end());
-      if (params_.max_peers > 0 && in_range.size() > std::size_t(params_.max_peers)) {
-        in_range.resize(static_cast<std::size_t>(params_.max_peers));
-      }
-      for (const auto& [d, j] : in_range) near[i][j] = 1;
     }
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) up[i][j] = near[i][j] && near[j][i];
+    std::sort(in_range.begin(), in_range.end());
+    std::vector<int> degree(n, 0);
+    for (auto& row : up) std::fill(row.begin(), row.end(), 0);
+    for (const auto& [d, i, j] : in_range) {
+      if (params_.max_peers > 0 &&
+          (degree[i] >= params_.max_peers || degree[j] >= params_.max_peers)) {
+        continue;
+      }
+      up[i][j] = up[j][i] = 1;
+      ++degree[i];
+      ++degree[j];
     }
   };
 
@@ -292,7 +297,7 @@ TeamResult TeamRunner::run(const Progress& progress) {
     }
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < n; ++j) {
-        if (up[i][j]) ++result.link_up_steps[names[i] + "->" + names[j]];
+        if (up[i][j]) result.link_up_s[names[i] + "->" + names[j]] += t1 - t0;
       }
     }
 

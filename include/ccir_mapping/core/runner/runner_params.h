@@ -42,7 +42,8 @@ struct RunnerParams {
   double radio_range_m = 50.0;
   /// radio_range: ... and no wall or solid of the world is between them.
   bool radio_needs_line_of_sight = false;
-  /// radio_range: the most teammates a robot is linked with at once (the nearest); 0: no bound.
+  /// radio_range: the most teammates a robot is linked with at once; pairs are linked nearest
+  /// first while both have fewer. 0: no bound.
   int max_peers = 8;
 
   /// Mission time advances in steps of this length; a message sent during a step is handled by

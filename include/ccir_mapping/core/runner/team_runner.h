@@ -75,8 +75,8 @@ struct TeamResult {
   std::vector<RobotResult> robots;
   /// t, resident memory of the process (bytes), one row per series period.
   std::vector<std::pair<double, std::uint64_t>> memory_series;
-  /// Steps in which each link was up, by "a->b".
-  std::map<std::string, std::uint64_t> link_up_steps;
+  /// Mission seconds each link was up, by "a->b" (links never up are absent).
+  std::map<std::string, double> link_up_s;
 };
 
 class TeamRunner {
