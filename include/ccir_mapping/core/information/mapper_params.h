@@ -29,11 +29,12 @@ struct MapperParams {
   /// moved more than this since it was inserted.
   double rebuild_shift_m = 0.2;
   double rebuild_rotation_deg = 1.0;
-  /// A rebuild waits this long per scan the last one placed (0: none): it costs ~70 ms of CPU
-  /// per scan, so the rebuilds of a growing map take at most ~70 ms / this of a core (~30 % at
-  /// 0.25) instead of a share that grows with the map; a map of 400 scans follows a correction
-  /// within 100 s.
-  double rebuild_wait_s_per_scan = 0.25;
+  /// A rebuild waits this long per scan the last one placed (0: none, the default): it costs
+  /// ~70 ms of CPU per scan, so with a wait the rebuilds of a growing map take at most ~70 ms /
+  /// this of a core (~30 % at 0.25) instead of a share that grows with the map, and a map of 400
+  /// scans follows a correction within 100 s. (With 0.25 the team_map rostest's teammate map
+  /// did not settle within its 600 s; not understood yet, so it is off by default.)
+  double rebuild_wait_s_per_scan = 0.0;
   /// Map entropy and known volume are reported over this box around the map origin (fixed, so
   /// the numbers compare over time).
   double entropy_box_half_width_m = 100.0;
