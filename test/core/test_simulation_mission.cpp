@@ -39,7 +39,7 @@ TEST(MissionParams, DefaultsAreValidAndErrorsNameTheParameter) {
   MissionParams none;
   none.robots = 0;
   ASSERT_FALSE(none.validate().empty());
-  EXPECT_EQ(none.validate().front(), "robots = 0 is out of range: allowed [1, 50]");
+  EXPECT_EQ(none.validate().front(), "robots = 0 is out of range: allowed [1, 200]");
 
   MissionParams too_many_aerial;
   too_many_aerial.aerial_robots = 4;
