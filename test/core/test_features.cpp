@@ -449,6 +449,25 @@ TEST(ScanVerifier, ACloudWithNothingToAlignIsRejectedNotCrashed) {
   }
 }
 
+TEST(ScanVerifier, ACompactedScanKeepsItsCovariancesAndCompletesToTheSame) {
+  const ScanVerifier verifier{VerificationParams{}};
+  PreparedScan scan = verifier.prepare(room(8.0F, 0.1F), features::LocalFeatures{});
+  ASSERT_TRUE(ScanVerifier::isComplete(scan));
+  ASSERT_GT(scan.covariances->size(), 100U);
+  const PreparedScan::Covariances before = *scan.covariances;
+  const auto packed = scan.packed_covariances;
+  ScanVerifier::compact(scan);
+  EXPECT_FALSE(ScanVerifier::isComplete(scan));
+  EXPECT_EQ(scan.covariances, nullptr);
+  EXPECT_EQ(scan.packed_covariances, packed);  // kept: completing again estimates nothing
+  verifier.complete(scan);
+  ASSERT_EQ(scan.covariances->size(), before.size());
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    ASSERT_EQ((*scan.covariances)[i], before[i]) << "point " << i;
+    ASSERT_EQ(before[i], before[i].transpose());
+  }
+}
+
 TEST(ScanVerifier, InvalidParametersAreNamed) {
   VerificationParams params;
   params.match_neighbors = 0;

@@ -178,7 +178,24 @@ void ScanVerifier::complete(PreparedScan& scan) const {
   scan.source_covariances = std::make_shared<PreparedScan::Covariances>();
   if (!scan.cloud->empty()) {
     scan.cloud_tree->setInputCloud(scan.cloud);
-    Gicp().covariancesOf(scan.cloud, scan.cloud_tree, *scan.covariances);
+    if (!scan.packed_covariances) {
+      PreparedScan::Covariances estimated;
+      Gicp().covariancesOf(scan.cloud, scan.cloud_tree, estimated);
+      auto packed = std::make_shared<std::vector<std::array<float, 6>>>();
+      packed->reserve(estimated.size());
+      for (const auto& c : estimated) {
+        packed->push_back({static_cast<float>(c(0, 0)), static_cast<float>(c(0, 1)),
+                           static_cast<float>(c(0, 2)), static_cast<float>(c(1, 1)),
+                           static_cast<float>(c(1, 2)), static_cast<float>(c(2, 2))});
+      }
+      scan.packed_covariances = std::move(packed);
+    }
+    scan.covariances->reserve(scan.packed_covariances->size());
+    for (const auto& p : *scan.packed_covariances) {
+      Eigen::Matrix3d c;
+      c << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
+      scan.covariances->push_back(c);
+    }
     const auto step = static_cast<std::size_t>(params_.gicp_source_step);
     for (std::size_t i = 0; i < scan.cloud->size() && i < scan.covariances->size(); i += step) {
       source->push_back((*scan.cloud)[i]);

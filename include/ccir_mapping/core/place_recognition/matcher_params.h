@@ -29,11 +29,10 @@ struct MatcherParams {
   /// (~6 ms on a simulated keyframe) and in an aliased mine the true place is rarely first.
   int max_candidates = 20;
   /// Places (own keyframes and teammates' scans) kept ready for verification, the most
-  /// recently used: the others keep ~1/10 of it (their clouds and features, ~0.15 MB) and are
-  /// made ready again when a query ranks them (~10 ms), so the Matcher's memory grows by that
-  /// per place instead of ~1.5 MB. Too few for the places a query ranks makes matching slow
-  /// (each candidate completed again): 100 cost a 300 s 3-robot mission most of its CPU.
-  int complete_places = 1000;
+  /// recently used: the others keep ~1/6 of it (their clouds, features and GICP covariances in
+  /// single precision, ~0.25 MB) and are made ready again when a query ranks them by rebuilding
+  /// their search trees, so the Matcher's memory grows by that per place instead of ~1.5 MB.
+  int complete_places = 100;
   /// Own loop closures must agree with odometry within 1 m + this x the path between the two
   /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
   double own_loop_gate_m_per_m = 0.1;

@@ -2,6 +2,8 @@
 // correspondences for an initial transform, GICP to refine it, acceptance on inliers and fitness.
 #pragma once
 
+#include <array>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +54,11 @@ struct PreparedScan {
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr source;
   Tree::Ptr source_tree;
   std::shared_ptr<Covariances> source_covariances;
+  /// GICP's covariances of `cloud` in single precision, upper triangles (24 bytes a point, a
+  /// third of the double ones): compact() keeps them, so complete() only rebuilds the search
+  /// trees, and the double ones are always made from these, so a scan completed again verifies
+  /// exactly as it did before.
+  std::shared_ptr<const std::vector<std::array<float, 6>>> packed_covariances;
   /// Points on non-horizontal surfaces (walls, pillars, rubble), for the overlap test: floor
   /// and ceiling overlap wherever two scans are aligned, so they would hide a wrong alignment.
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr walls;
@@ -66,8 +73,9 @@ class ScanVerifier {
 
   PreparedScan prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                        features::LocalFeatures features) const;
-  /// What a prepared scan keeps while it waits (its clouds and features, ~1/10 of it): the
-  /// search trees, covariances and GICP source go, and complete() makes them again.
+  /// What a prepared scan keeps while it waits (its clouds, features and packed covariances,
+  /// ~1/5 of it): the search trees, double covariances and GICP source go, and complete() makes
+  /// them again without estimating a covariance.
   static void compact(PreparedScan& scan);
   static bool isComplete(const PreparedScan& scan) { return scan.cloud_tree != nullptr; }
   void complete(PreparedScan& scan) const;
