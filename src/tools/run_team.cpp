@@ -20,6 +20,8 @@
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/runner/team_runner.h"
+#include "ccir_mapping/ros/params.h"
+#include "ccir_mapping/ros/yaml_params.h"
 #include "command_line.h"
 #include "flag_registrar.h"
 
@@ -36,6 +38,7 @@ constexpr double kCorrectM = 0.3, kCorrectDeg = 2.0;
 struct Options {
   runner::RunnerParams params;
   std::string mission_dir;
+  std::string config_file;
   std::string model_dir = CCIR_DEFAULT_MODEL_DIR;
   std::string out_dir;
   int threads = 1;
@@ -69,8 +72,55 @@ std::optional<std::string> readMissionFlags(const std::string& dir,
   return std::nullopt;
 }
 
+/// The stages' parameters from a robot configuration file in config/robot.yaml's layout, read
+/// with the nodelets' own loaders (its bridge section is not read: the link flags set it); the
+/// errors, each naming its section and key.
+std::vector<std::string> readStageConfig(const std::string& path, runner::RunnerParams& p) {
+  namespace rp = ccir_mapping::ros_params;
+  YAML::Node file;
+  try {
+    file = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    return {"config = '" + path + "' cannot be read: " + e.what()};
+  }
+  std::vector<std::string> errors;
+  const auto section = [&](const char* name, auto settings, auto& params) {
+    settings.core = params;
+    rp::ParamReader reader(file[name] ? rp::toXmlRpc(file[name]) : XmlRpc::XmlRpcValue(), name);
+    rp::load(reader, settings);
+    for (const auto& error : reader.errors()) errors.push_back(std::string(name) + "/" + error);
+    for (const auto& key : reader.unknownKeys()) {
+      errors.push_back(std::string(name) + "/" + key + " in " + path + " is not a parameter");
+    }
+    params = settings.core;
+  };
+  section("preprocessor", rp::PreprocessorSettings{}, p.preprocessor);
+  section("matcher", rp::MatcherSettings{}, p.matcher);
+  section("backend", rp::BackendSettings{}, p.backend);
+  section("mapper", rp::MapperSettings{}, p.mapper);
+  section("broker", rp::BrokerSettings{}, p.broker);
+  return errors;
+}
+
+/// The value of --config, looked for before the other flags take their defaults from it.
+std::string configFlag(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--config" && i + 1 < argc) return argv[i + 1];
+    if (arg.rfind("--config=", 0) == 0) return arg.substr(9);
+  }
+  return {};
+}
+
 std::optional<int> parse(int argc, char** argv, Options* o) {
   auto& p = o->params;
+  o->config_file = configFlag(argc, argv);
+  if (!o->config_file.empty()) {
+    const auto errors = readStageConfig(o->config_file, p);
+    for (const auto& error : errors) std::cerr << "run_team: --config: " << error << '\n';
+    if (!errors.empty()) return 2;
+    if (!p.matcher.model_dir.empty()) o->model_dir = p.matcher.model_dir;
+  }
   // Defaults that differ from the stages' own, and why: solves are bounded by iterations rather
   // than wall time, so a run does not depend on the machine's speed; the radio carries whatever
   // the budget lets through, as the loopback TCP of the bridged demo does.
@@ -85,15 +135,20 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "Runs a simulated team mission through every robot's pipeline (preprocessing, place\n"
       "recognition, team pose graph, map, CCIR routing) with links through the bridge's\n"
       "scheduler and token buckets, in simulated time. The stages take the defaults of\n"
-      "config/robot.yaml. A flag may be shortened while it stays unambiguous.\n\n"
+      "config/robot.yaml (or of --config). A flag may be shortened while it stays\n"
+      "unambiguous.\n\n"
       "Options",
       110);
   options.add_options()("help,h", "print this help and exit")(
       "mission", po::value<std::string>(&o->mission_dir)->value_name("dir"),
       "run the mission simulate_team wrote to DIR (its flags, from DIR/mission.yaml, make the "
       "same mission again) instead of the mission flags below")(
-      "out", po::value<std::string>(&o->out_dir)->value_name("dir"),
-      "write DIR/report.json (summary and time series)")(
+      "config", po::value<std::string>(&o->config_file)->value_name("file"),
+      "the stages' parameters from a robot configuration file (config/robot.yaml's sections "
+      "preprocessor, matcher, backend, mapper, broker; not bridge, which the link flags set, "
+      "nor backend/max_solve_time_s, which --max-solve-time-s sets); the flags' defaults "
+      "otherwise")("out", po::value<std::string>(&o->out_dir)->value_name("dir"),
+                   "write DIR/report.json (summary and time series)")(
       "model-dir", po::value<std::string>(&o->model_dir)->default_value(o->model_dir),
       "place-recognition model (train_place_model output)")(
       "threads", po::value<int>(&o->threads)->default_value(o->threads),

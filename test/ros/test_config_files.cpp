@@ -7,14 +7,14 @@
 #include <vector>
 
 #include "ccir_mapping/ros/params.h"
-#include "yaml_to_xmlrpc.h"
+#include "ccir_mapping/ros/yaml_params.h"
 
 namespace ccir_mapping::ros_params {
 namespace {
 
 template <class Settings>
 void expectValid(const std::string& file, const std::string& section, const YAML::Node& node) {
-  XmlRpc::XmlRpcValue values = testing::toXmlRpc(node);
+  XmlRpc::XmlRpcValue values = toXmlRpc(node);
   // robot_name comes from the launch file.
   if (values.getType() == XmlRpc::XmlRpcValue::TypeStruct) values["robot_name"] = "robot_a";
   ParamReader reader(values, file + ":" + section);

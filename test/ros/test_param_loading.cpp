@@ -4,12 +4,12 @@
 #include <algorithm>
 
 #include "ccir_mapping/ros/params.h"
-#include "yaml_to_xmlrpc.h"
+#include "ccir_mapping/ros/yaml_params.h"
 
 namespace ccir_mapping::ros_params {
 namespace {
 
-XmlRpc::XmlRpcValue params(const std::string& yaml) { return testing::toXmlRpc(YAML::Load(yaml)); }
+XmlRpc::XmlRpcValue params(const std::string& yaml) { return toXmlRpc(YAML::Load(yaml)); }
 
 bool hasError(const ParamReader& reader, const std::string& start) {
   return std::any_of(reader.errors().begin(), reader.errors().end(),

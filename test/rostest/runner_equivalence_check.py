@@ -23,6 +23,8 @@ ROBOTS = ["robot_a", "robot_b", "robot_c"]
 EVERY_N = 2
 RATE = "0.3"  # three pipelines on a slow two-core machine lose no scan
 BYTES_WITHIN = 0.10
+CONFIG = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "config",
+                      "robot.yaml")  # what launch/robot.launch loads
 
 
 def last_rows(path, key):
@@ -105,9 +107,11 @@ class RunnerEquivalence(Processes, unittest.TestCase):
 
     def run_runner(self):
         out = os.path.join(self.dir, "run_team")
+        # The stages' parameters from the file the robots' launch loads.
         done = subprocess.run(["rosrun", "ccir_mapping", "run_team", "--mission", self.mission,
-                               "--mode", "fixed_rate", "--every-n", str(EVERY_N), "--threads", "2",
-                               "--out", out], capture_output=True, text=True, timeout=1200)
+                               "--config", CONFIG, "--mode", "fixed_rate", "--every-n",
+                               str(EVERY_N), "--threads", "2", "--out", out],
+                              capture_output=True, text=True, timeout=1200)
         self.assertEqual(done.returncode, 0, done.stderr[-2000:])
         report = json.load(open(os.path.join(out, "report.json")))
         return {r["name"]: {
@@ -135,6 +139,16 @@ class RunnerEquivalence(Processes, unittest.TestCase):
                 self.assertLess(abs(ratio - 1.0), BYTES_WITHIN,
                                 "%s: run_team %d B, ROS %d B" % (link, s["bytes_sent"][peer],
                                                                  r["bytes_sent"][peer]))
+
+    def test_a_bad_configuration_file_is_refused_naming_the_key(self):
+        config = os.path.join(self.dir, "bad.yaml")
+        with open(config, "w") as f:
+            f.write("matcher: {complete_placez: 10}\nmapper: {resolution_m: -1}\n")
+        done = subprocess.run(["rosrun", "ccir_mapping", "run_team", "--config", config],
+                              capture_output=True, text=True, timeout=120)
+        self.assertEqual(done.returncode, 2, done.stderr)
+        self.assertIn("matcher/complete_placez", done.stderr)
+        self.assertIn("resolution_m", done.stderr)
 
 
 if __name__ == "__main__":

@@ -1,14 +1,11 @@
-// Test helper: a YAML file as the XmlRpc value rosparam would put on the parameter server.
-#pragma once
+#include "ccir_mapping/ros/yaml_params.h"
 
+#include <exception>
 #include <string>
 
-#include <xmlrpcpp/XmlRpcValue.h>
-#include <yaml-cpp/yaml.h>
+namespace ccir_mapping::ros_params {
 
-namespace ccir_mapping::testing {
-
-inline XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node) {
+XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node) {
   XmlRpc::XmlRpcValue out;
   switch (node.Type()) {
     case YAML::NodeType::Map:
@@ -42,4 +39,4 @@ inline XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node) {
   }
 }
 
-}  // namespace ccir_mapping::testing
+}  // namespace ccir_mapping::ros_params
