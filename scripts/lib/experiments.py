@@ -55,9 +55,11 @@ def run_team(args, run_dir, flags):
     if not os.path.exists(report):
         os.makedirs(run_dir, exist_ok=True)
         started = time.monotonic()
+        config = ["--config", args.config] if args.config else []
         with open(os.path.join(run_dir, "run_team.log"), "w") as log:
             done = subprocess.run([args.run_team, "--out", run_dir, "--threads", str(args.threads)]
-                                  + flags, stdout=subprocess.DEVNULL, stderr=log, env=args.env)
+                                  + config + flags, stdout=subprocess.DEVNULL, stderr=log,
+                                  env=args.env)
         if done.returncode != 0:
             sys.exit("run_team failed: see %s/run_team.log" % run_dir)
         print("[experiments] %s: %.0f s" % (os.path.relpath(run_dir, args.out),
@@ -319,6 +321,7 @@ def main():
     parser.add_argument("--budget-bytes-per-s", type=float, default=150000.0)
     parser.add_argument("--every-n", default="13,8,5,3,2")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
+    parser.add_argument("--config", help="a robot YAML for run_team --config (stage parameters)")
     # scale
     parser.add_argument("--pillars", type=int, default=6)
     parser.add_argument("--start-window-s", type=float, default=20.0)
@@ -328,6 +331,8 @@ def main():
     parser.add_argument("--overlap", type=float, default=0.5)
     args = parser.parse_args()
     args.out = os.path.abspath(args.out)
+    if args.config:
+        args.config = os.path.abspath(args.config)
     os.makedirs(args.out, exist_ok=True)
     snapshot(args)
     {"ccir_vs_fixed_rate": ccir_vs_fixed_rate, "scale": scale,

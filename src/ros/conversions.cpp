@@ -717,6 +717,7 @@ MapStats toMapStatsMsg(const core::information::MapStage::Stats& stats,
   msg.keyframes = static_cast<std::uint32_t>(stats.keyframes);
   msg.peer_scans = static_cast<std::uint32_t>(stats.peer_scans);
   msg.pending_peer_scans = static_cast<std::uint32_t>(stats.pending_peer_scans);
+  msg.settled_scans = static_cast<std::uint32_t>(stats.settled_scans);
   msg.rebuilds = stats.rebuilds;
   return msg;
 }

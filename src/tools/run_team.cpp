@@ -311,6 +311,7 @@ Json::Value robotJson(const runner::RobotResult& r, const runner::RunnerParams& 
   j["map"]["entropy_bits"] = round3(r.map.entropy_bits);
   j["map"]["keyframes"] = Json::UInt64(r.map.keyframes);
   j["map"]["peer_scans"] = Json::UInt64(r.map.peer_scans);
+  j["map"]["settled_scans"] = Json::UInt64(r.map.settled_scans);
   j["map"]["rebuilds"] = r.map.rebuilds;
   j["broker"]["scans_sent"] = Json::UInt64(r.broker.scans_sent);
   j["broker"]["scans_received"] = Json::UInt64(r.broker.scans_received);

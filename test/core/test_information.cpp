@@ -398,6 +398,25 @@ Pose3 at(double x, double y, double yaw_deg = 0) {
          Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ());
 }
 
+TEST(OccupancyMap, ASnapshotRestoresTheMapInAFractionOfItsMemory) {
+  OccupancyMap map(params());
+  map.insert(roomScan({0, 0, 0}), at(0, 0));
+  map.insert(roomScan({0, 0, 0}), at(2, 1, 30));
+  const auto snapshot = map.snapshot();
+  EXPECT_LT(snapshot.tree.size() * 4, map.tree().memoryUsage()) << "compact";
+  OccupancyMap restored(params(), snapshot);
+  EXPECT_EQ(restored.tree().size(), map.tree().size());
+  for (auto it = map.tree().begin_leafs(); it != map.tree().end_leafs(); ++it) {
+    ASSERT_FLOAT_EQ(restored.occupancy(it.getKey()), it->getOccupancy());
+  }
+  // It goes on as the original would, entropy box included.
+  for (OccupancyMap* m : {&map, &restored}) m->insert(roomScan({0, 0, 0}), at(4, 0, 60));
+  EXPECT_DOUBLE_EQ(restored.boxEntropyBits(), map.boxEntropyBits());
+  EXPECT_DOUBLE_EQ(restored.boxKnownVolumeM3(), map.boxKnownVolumeM3());
+  const Box box{params().entropyBoxMin(), params().entropyBoxMax()};
+  EXPECT_NEAR(restored.boxEntropyBits(), restored.entropyBits(box), 1e-9 * map.boxEntropyBits());
+}
+
 TEST(KeyframeMap, FollowsOptimizedPosesAndPlacesTeammatesOnceTheirFrameIsKnown) {
   KeyframeMap map(params());
   auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
@@ -460,6 +479,42 @@ TEST(KeyframeMap, PlacesTeammatesScansWhereTheTeamGraphPutsThemAndRebuildsWhenTh
   EXPECT_TRUE(all[0].map_from_sensor.isApprox(at(5, 5.5, 30)));
   EXPECT_TRUE(all[1].map_from_sensor.isApprox(at(12, 1.1)));
   EXPECT_EQ(map.peerScans(), 2U);
+}
+
+TEST(KeyframeMap, SettlesTheOldestPlacedScansBeyondTheRebuildWindow) {
+  MapperParams p = params();
+  p.rebuild_window_scans = 2;
+  KeyframeMap map(p);
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  map.addOwn(1, cloud, at(0, 0));
+  map.addOwn(2, cloud, at(2, 0));
+  map.addPeer("robot_b", 7, cloud, at(1, 1));  // waits for robot_b's frame: not placed
+  EXPECT_FALSE(map.settleDue()) << "two placed scans fit the window";
+  map.addOwn(3, cloud, at(4, 0));
+  map.setTeamTransform("robot_b", at(10, 0));  // places 7 after 3
+  map.setOptimizedPoses({{2, at(2, 0.5)}});
+  ASSERT_TRUE(map.settleDue());
+  const auto settled = map.settle();
+  ASSERT_EQ(settled.size(), 2U) << "the oldest placed: keyframes 1 and 2";
+  EXPECT_TRUE(settled[0].map_from_sensor.isApprox(at(0, 0)));
+  EXPECT_TRUE(settled[1].map_from_sensor.isApprox(at(2, 0.5))) << "at its pose of the moment";
+  EXPECT_FALSE(map.settleDue());
+  EXPECT_EQ(map.settledScans(), 2U);
+  EXPECT_EQ(map.ownKeyframes(), 3U);
+  EXPECT_EQ(map.peerScans(), 1U);
+  // A settled scan is never placed again, however far it moves.
+  EXPECT_EQ(map.placeAll().size(), 2U);
+  map.setOptimizedPoses({{1, at(0, 5)}});
+  EXPECT_FALSE(map.rebuildDue());
+  map.addOwn(4, cloud, at(6, 0));
+  map.addOwn(5, cloud, at(8, 0));
+  const auto next = map.settle();
+  ASSERT_EQ(next.size(), 2U) << "keyframe 3, then robot_b's 7";
+  EXPECT_TRUE(next[1].map_from_sensor.isApprox(at(10, 0) * at(1, 1)));
+  EXPECT_TRUE(map.holdsPeer("robot_b", 7)) << "settled, still held";
+  EXPECT_TRUE(map.addPeer("robot_b", 7, cloud, at(1, 1)).empty()) << "not placed twice";
+  EXPECT_EQ(map.peerScans(), 1U);
+  EXPECT_EQ(map.pendingPeerScans(), 0U);
 }
 
 TEST(MapStage, RebuildsAtTheOptimisedPosesWithoutLosingScansPlacedMeanwhile) {
@@ -540,6 +595,34 @@ TEST(MapStage, ARebuildWaitsInProportionToTheScansTheLastOnePlaced) {
   EXPECT_TRUE(stage.rebuildIfDue(130.0));
   stage.waitForRebuild();
   EXPECT_EQ(stage.stats().rebuilds, 2U);
+}
+
+TEST(MapStage, ARebuildStartsFromTheSettledScansAndReplacesOnlyTheWindow) {
+  MapperParams p = params();
+  p.rebuild_window_scans = 2;
+  MapStage stage("robot_a", p);
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  for (Stamp stamp : {1, 2, 3}) stage.addOwn(stamp, cloud, at(2.0 * double(stamp), 0));
+  EXPECT_FALSE(stage.rebuildIfDue(0.0)) << "nothing moved: keyframe 1 is only settled";
+  stage.waitForRebuild();
+  EXPECT_EQ(stage.stats().settled_scans, 1U);
+  EXPECT_EQ(stage.stats().rebuilds, 0U);
+  stage.setOptimizedPoses({{1, at(2, 1)}, {2, at(4, 1)}, {3, at(6, 1)}});
+  ASSERT_TRUE(stage.rebuildIfDue(0.0));
+  stage.waitForRebuild();
+  const auto stats = stage.stats();
+  EXPECT_EQ(stats.rebuilds, 1U);
+  EXPECT_EQ(stats.keyframes, 3U);
+  OccupancyMap windowed(p), unbounded(p);
+  windowed.insert(*cloud, at(2, 0));
+  unbounded.insert(*cloud, at(2, 1));
+  for (OccupancyMap* m : {&windowed, &unbounded}) {
+    m->insert(*cloud, at(4, 1));
+    m->insert(*cloud, at(6, 1));
+  }
+  EXPECT_NEAR(stats.entropy_bits, windowed.boxEntropyBits(), 1e-6)
+      << "keyframe 1 where it was settled, 2 and 3 at their optimised poses";
+  EXPECT_GT(std::abs(stats.entropy_bits - unbounded.boxEntropyBits()), 1.0);
 }
 
 TEST(ScanRanker, CoarsenedGainsSumPerBlock) {

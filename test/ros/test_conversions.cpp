@@ -564,6 +564,7 @@ TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
   stats.keyframes = 9;
   stats.peer_scans = 4;
   stats.pending_peer_scans = 2;
+  stats.settled_scans = 5;
   stats.rebuilds = 3;
   core::information::MapperParams params;
   params.resolution_m = 0.2;
@@ -581,6 +582,7 @@ TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
   EXPECT_EQ(msg.keyframes, 9U);
   EXPECT_EQ(msg.peer_scans, 4U);
   EXPECT_EQ(msg.pending_peer_scans, 2U);
+  EXPECT_EQ(msg.settled_scans, 5U);
   EXPECT_EQ(msg.rebuilds, 3U);
 }
 

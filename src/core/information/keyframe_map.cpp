@@ -1,6 +1,8 @@
 #include "ccir_mapping/core/information/keyframe_map.h"
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <Eigen/Geometry>
 
@@ -19,7 +21,7 @@ bool KeyframeMap::moved(const Pose3& a, const Pose3& b) const {
 PlacedScan KeyframeMap::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud,
                                const Pose3& odom_pose) {
   const Pose3 map_pose = correction_ * odom_pose;
-  own_[stamp] = {cloud, odom_pose, map_pose, map_pose};
+  own_[stamp] = {cloud, odom_pose, map_pose, map_pose, ++placed_};
   return {std::move(cloud), map_pose};
 }
 
@@ -42,6 +44,7 @@ std::vector<PlacedScan> KeyframeMap::update(Teammate& t) {
     }
     scan.placed = true;
     scan.inserted_pose = *pose;
+    scan.placed_order = ++placed_;
     placed.push_back({scan.cloud, *pose});
   }
   return placed;
@@ -51,18 +54,21 @@ std::vector<PlacedScan> KeyframeMap::addPeer(const std::string& robot, KeyframeI
                                              std::shared_ptr<const Cloud> cloud,
                                              const Pose3& peer_pose) {
   Teammate& t = teammates_[robot];
+  if (t.settled.count(id) > 0) return {};
   const auto [it, added] = t.scans.emplace(id, Peer{std::move(cloud), peer_pose});
   if (!added) return {};
   const auto pose = poseOf(t, id, it->second);
   if (!pose) return {};
   it->second.placed = true;
   it->second.inserted_pose = *pose;
+  it->second.placed_order = ++placed_;
   return {{it->second.cloud, *pose}};
 }
 
 bool KeyframeMap::holdsPeer(const std::string& robot, KeyframeId id) const {
   const auto t = teammates_.find(robot);
-  return t != teammates_.end() && t->second.scans.count(id) > 0;
+  return t != teammates_.end() &&
+         (t->second.scans.count(id) > 0 || t->second.settled.count(id) > 0);
 }
 
 std::vector<PlacedScan> KeyframeMap::setTeamTransform(const std::string& robot,
@@ -100,6 +106,7 @@ std::vector<PlacedScan> KeyframeMap::placeAll() {
     for (auto& [id, scan] : t.scans) {
       const auto pose = poseOf(t, id, scan);
       if (!pose) continue;
+      if (!scan.placed) scan.placed_order = ++placed_;
       scan.placed = true;
       scan.inserted_pose = *pose;
       placed.push_back({scan.cloud, *pose});
@@ -109,12 +116,52 @@ std::vector<PlacedScan> KeyframeMap::placeAll() {
   return placed;
 }
 
+bool KeyframeMap::settleDue() const {
+  const auto window = static_cast<std::size_t>(params_.rebuild_window_scans);
+  const std::size_t held = own_.size() + peerScans() - settled_peer_;
+  return window > 0 && held > window + window / 4;
+}
+
+std::vector<PlacedScan> KeyframeMap::settle() {
+  const auto window = static_cast<std::size_t>(params_.rebuild_window_scans);
+  // Placement order of every placed scan holding its cloud, and how to settle it.
+  std::vector<std::pair<std::uint64_t, std::function<PlacedScan()>>> held;
+  for (auto& [stamp, k] : own_) {
+    held.emplace_back(k.placed_order, [this, stamp = stamp] {
+      const auto it = own_.find(stamp);
+      PlacedScan scan{it->second.cloud, it->second.map_pose};
+      own_.erase(it);
+      ++settled_own_;
+      return scan;
+    });
+  }
+  for (auto& [robot, t] : teammates_) {
+    for (auto& [id, scan] : t.scans) {
+      if (!scan.placed) continue;
+      held.emplace_back(scan.placed_order, [this, &t = t, id = id] {
+        const auto it = t.scans.find(id);
+        PlacedScan placed{it->second.cloud, *poseOf(t, id, it->second)};
+        t.scans.erase(it);
+        t.settled.insert(id);
+        ++settled_peer_;
+        return placed;
+      });
+    }
+  }
+  if (window == 0 || held.size() <= window) return {};
+  std::sort(held.begin(), held.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<PlacedScan> settled;
+  for (std::size_t i = 0; i + window < held.size(); ++i) settled.push_back(held[i].second());
+  return settled;
+}
+
 std::size_t KeyframeMap::peerScans() const {
   std::size_t n = 0;
   for (const auto& [robot, t] : teammates_) {
     for (const auto& [id, scan] : t.scans) n += scan.placed;
   }
-  return n;
+  return n + settled_peer_;
 }
 
 std::size_t KeyframeMap::pendingPeerScans() const {

@@ -66,45 +66,57 @@ void MapStage::insert(const std::vector<PlacedScan>& scans) {
 
 bool MapStage::rebuildIfDue(double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (rebuilding_ || !keyframes_.rebuildDue()) return false;
-  if (last_rebuild_scans_ > 0 &&
-      now_s - last_rebuild_s_ <
-          params_.rebuild_wait_s_per_scan * static_cast<double>(last_rebuild_scans_)) {
-    return false;
-  }
+  if (busy_) return false;
+  const bool rebuild = keyframes_.rebuildDue() &&
+                       (last_rebuild_scans_ == 0 ||
+                        now_s - last_rebuild_s_ >= params_.rebuild_wait_s_per_scan *
+                                                       static_cast<double>(last_rebuild_scans_));
+  if (!rebuild && !keyframes_.settleDue()) return false;
   if (rebuild_thread_.joinable()) rebuild_thread_.join();
-  rebuilding_ = true;
-  auto scans = keyframes_.placeAll();
-  last_rebuild_s_ = now_s;
-  last_rebuild_scans_ = scans.size();
-  rebuild_thread_ = std::thread([this, scans = std::move(scans)] {
-    const auto start = std::chrono::steady_clock::now();
-    auto fresh = std::make_unique<OccupancyMap>(params_);
-    hooks_.run("rebuild", [&] {
-      for (const auto& scan : scans) fresh->insert(*scan.cloud, scan.map_from_sensor);
-    });
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      for (const auto& scan : placed_during_rebuild_)
-        fresh->insert(*scan.cloud, scan.map_from_sensor);
-      placed_during_rebuild_.clear();
-      map_->replace(std::move(fresh));
-      rebuilding_ = false;
-      ++rebuilds_;
-    }
-    rebuild_done_.notify_all();
-    if (hooks_.rebuilt) {
-      hooks_.rebuilt(
-          scans.size(),
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    }
-  });
-  return true;
+  busy_ = true;
+  rebuilding_ = rebuild;
+  auto settled = keyframes_.settle();
+  std::vector<PlacedScan> scans;
+  if (rebuild) {
+    scans = keyframes_.placeAll();
+    last_rebuild_s_ = now_s;
+    last_rebuild_scans_ = scans.size();
+  }
+  rebuild_thread_ =
+      std::thread([this, rebuild, settled = std::move(settled), scans = std::move(scans)] {
+        const auto start = std::chrono::steady_clock::now();
+        // Only this thread touches base_, and one runs at a time.
+        auto fresh = base_ ? std::make_unique<OccupancyMap>(params_, *base_)
+                           : std::make_unique<OccupancyMap>(params_);
+        hooks_.run("rebuild", [&] {
+          for (const auto& scan : settled) fresh->insert(*scan.cloud, scan.map_from_sensor);
+          if (!settled.empty()) base_ = fresh->snapshot();
+          for (const auto& scan : scans) fresh->insert(*scan.cloud, scan.map_from_sensor);
+        });
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (rebuild) {
+            for (const auto& scan : placed_during_rebuild_)
+              fresh->insert(*scan.cloud, scan.map_from_sensor);
+            placed_during_rebuild_.clear();
+            map_->replace(std::move(fresh));
+            ++rebuilds_;
+          }
+          busy_ = rebuilding_ = false;
+        }
+        rebuild_done_.notify_all();
+        if (rebuild && hooks_.rebuilt) {
+          hooks_.rebuilt(
+              scans.size(),
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+      });
+  return rebuild;
 }
 
 void MapStage::waitForRebuild() {
   std::unique_lock<std::mutex> lock(mutex_);
-  rebuild_done_.wait(lock, [this] { return !rebuilding_; });
+  rebuild_done_.wait(lock, [this] { return !busy_; });
 }
 
 bool MapStage::save(const std::string& path) {
@@ -123,6 +135,7 @@ MapStage::Stats MapStage::stats() const {
   stats.keyframes = keyframes_.ownKeyframes();
   stats.peer_scans = keyframes_.peerScans();
   stats.pending_peer_scans = keyframes_.pendingPeerScans();
+  stats.settled_scans = keyframes_.settledScans();
   stats.rebuilds = rebuilds_;
   return stats;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include <pcl/common/transforms.h>
@@ -38,6 +39,20 @@ OccupancyMap::OccupancyMap(const MapperParams& params)
   tree_.coordToKeyChecked(toOctomap(params_.entropyBoxMax()), box_max_key_);
   box_entropy_bits_ = 1.0;
   for (int a = 0; a < 3; ++a) box_entropy_bits_ *= box_max_key_[a] - box_min_key_[a] + 1;
+}
+
+OccupancyMap::OccupancyMap(const MapperParams& params, const Snapshot& snapshot)
+    : OccupancyMap(params) {
+  std::istringstream in(snapshot.tree);
+  tree_.readData(in);
+  box_entropy_bits_ = snapshot.box_entropy_bits;
+  box_known_voxels_ = snapshot.box_known_voxels;
+}
+
+OccupancyMap::Snapshot OccupancyMap::snapshot() const {
+  std::ostringstream out;
+  tree_.writeData(out);
+  return {out.str(), box_entropy_bits_, box_known_voxels_};
 }
 
 double OccupancyMap::boxKnownVolumeM3() const {

@@ -6,9 +6,11 @@
 // cannot move what it integrated).
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -53,12 +55,20 @@ class KeyframeMap {
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
   bool rebuildDue() const { return rebuild_due_; }
-  /// Every placeable scan at the current poses; clears rebuildDue().
+  /// Every placeable scan at the current poses, settled ones aside; clears rebuildDue().
   std::vector<PlacedScan> placeAll();
 
-  std::size_t ownKeyframes() const { return own_.size(); }
+  /// More than 1.25 rebuild_window_scans placed scans hold their clouds.
+  bool settleDue() const;
+  /// The placed scans beyond the newest rebuild_window_scans, oldest first, at their current
+  /// poses: from now on they are settled (never placed again; a teammate's is still held).
+  std::vector<PlacedScan> settle();
+
+  /// Own keyframes and placed teammates' scans, settled ones included.
+  std::size_t ownKeyframes() const { return own_.size() + settled_own_; }
   std::size_t peerScans() const;
   std::size_t pendingPeerScans() const;
+  std::size_t settledScans() const { return settled_own_ + settled_peer_; }
 
  private:
   struct Own {
@@ -67,15 +77,18 @@ class KeyframeMap {
     /// Best known pose, and the pose it was inserted with.
     Pose3 map_pose;
     Pose3 inserted_pose;
+    std::uint64_t placed_order = 0;
   };
   struct Peer {
     std::shared_ptr<const Cloud> cloud;
     Pose3 peer_pose;
     bool placed = false;
     Pose3 inserted_pose = Pose3::Identity();
+    std::uint64_t placed_order = 0;
   };
   struct Teammate {
     std::map<KeyframeId, Peer> scans;
+    std::set<KeyframeId> settled;
     bool known = false;
     Pose3 map_from_peer = Pose3::Identity();
     std::map<KeyframeId, Pose3> graph_poses;
@@ -94,6 +107,10 @@ class KeyframeMap {
   /// map_from_odom of the latest optimised keyframe: places new keyframes.
   Pose3 correction_ = Pose3::Identity();
   bool rebuild_due_ = false;
+  /// Counts placements: orders the scans for the rebuild window.
+  std::uint64_t placed_ = 0;
+  std::size_t settled_own_ = 0;
+  std::size_t settled_peer_ = 0;
 };
 
 }  // namespace ccir_mapping::core::information

@@ -2,7 +2,9 @@
 // (a SharedMap, which the Broker reads in process). Placed scans are integrated at once. When the
 // optimised poses or a team transform have moved enough, rebuildIfDue() builds a fresh map at the
 // current poses on a thread of its own and swaps it in; scans placed meanwhile go into both maps,
-// so none is lost.
+// so none is lost. With a rebuild window (MapperParams::rebuild_window_scans) a rebuild starts
+// from a compact base map of the settled older scans, so its cost and the clouds held stay
+// bounded however long the mission.
 #pragma once
 
 #include <condition_variable>
@@ -29,6 +31,8 @@ class MapStage {
     std::size_t keyframes = 0;
     std::size_t peer_scans = 0;
     std::size_t pending_peer_scans = 0;
+    /// Of keyframes and peer_scans, those settled into the base map (rebuild_window_scans).
+    std::size_t settled_scans = 0;
     std::uint32_t rebuilds = 0;
   };
   /// Runs a piece of map work (integrating scans, a rebuild) and lets the caller measure it;
@@ -68,9 +72,10 @@ class MapStage {
   /// Starts a rebuild when one is due, none is under way and rebuild_wait_s_per_scan times the
   /// scans of the last rebuild have passed since it started (`now_s`: seconds on the clock its
   /// cost is paid in: the wall clock of a robot, simulated time of a simulated one); true when
-  /// it started.
+  /// it started. Settles the scans beyond the rebuild window into the base map, on the same
+  /// thread, with the rebuild or on its own once due (KeyframeMap::settleDue).
   bool rebuildIfDue(double now_s);
-  /// Returns once no rebuild is under way.
+  /// Returns once no rebuild or settling is under way.
   void waitForRebuild();
   /// Writes the map (OctoMap .bt) as it is once a rebuild under way is done; false when the
   /// file cannot be written.
@@ -86,12 +91,15 @@ class MapStage {
   std::shared_ptr<SharedMap> map_;
   mutable std::mutex mutex_;  // guards what follows
   KeyframeMap keyframes_;
-  bool rebuilding_ = false;
+  bool busy_ = false;        // the rebuild thread runs
+  bool rebuilding_ = false;  // and will swap in a rebuilt map
   std::condition_variable rebuild_done_;
   std::vector<PlacedScan> placed_during_rebuild_;
   std::uint32_t rebuilds_ = 0;
   double last_rebuild_s_ = 0.0;
   std::size_t last_rebuild_scans_ = 0;  // 0 before the first rebuild
+  /// What rebuilds start from: the settled scans (only the rebuild thread touches it).
+  std::optional<OccupancyMap::Snapshot> base_;
   std::thread rebuild_thread_;
 };
 

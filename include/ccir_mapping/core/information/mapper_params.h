@@ -35,6 +35,16 @@ struct MapperParams {
   /// scans follows a correction within 100 s. Off by default until it is measured on the
   /// rostests.
   double rebuild_wait_s_per_scan = 0.0;
+  /// Rebuilds re-place only the newest this many placed scans (own and teammates', in the order
+  /// they were placed). Once a quarter window more are placed, the older ones are settled:
+  /// integrated once more, at their poses of that moment, into a compact base map (see
+  /// OccupancyMap::Snapshot) that every rebuild starts from, and their clouds released. So a
+  /// rebuild costs at most this many scans and a robot keeps at most 1.25 times this many
+  /// clouds, however long the mission; the price is that a correction reaching a settled scan
+  /// no longer moves it in the map. 400: a 3-robot mission reaches it after ~4 minutes (each
+  /// robot ~1 keyframe/s and ~0.6 teammates' scans/s); a rebuild then costs at most ~25 s of
+  /// CPU and the clouds ~90 MB. 0: no window (every scan kept and re-placed).
+  int rebuild_window_scans = 400;
   /// Map entropy and known volume are reported over this box around the map origin (fixed, so
   /// the numbers compare over time).
   double entropy_box_half_width_m = 100.0;

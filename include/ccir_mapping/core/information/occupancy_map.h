@@ -40,8 +40,19 @@ struct ScanUpdate {
 
 class OccupancyMap final : public MapInformation {
  public:
+  /// The map in compact form: the octree's nodes serialised (OctoMap's own format, ~5 bytes a
+  /// node against ~40 in memory) and the entropy box's statistics.
+  struct Snapshot {
+    std::string tree;
+    double box_entropy_bits = 0.0;
+    double box_known_voxels = 0.0;
+  };
+
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit OccupancyMap(const MapperParams& params);
+  /// The map a snapshot() was taken of (with the same params).
+  OccupancyMap(const MapperParams& params, const Snapshot& snapshot);
+  Snapshot snapshot() const;
 
   /// `points` (map frame) seen from `origin`; beams longer than max_insert_range_m clear free
   /// space up to that range only. Non-finite points are skipped and counted.
