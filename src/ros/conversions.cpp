@@ -146,6 +146,7 @@ bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out) 
   out->odom_pose_from = toPose(msg.odom_pose_from);
   out->odom_pose_to = toPose(msg.odom_pose_to);
   out->match_score = msg.match_score;
+  out->new_place_probability = msg.new_place_probability;
   out->fitness_m2 = msg.fitness_m2;
   out->inliers = static_cast<int>(msg.inliers);
   out->method = msg.method;
@@ -163,6 +164,7 @@ LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop) {
   if (loop.odom_pose_from) msg.odom_pose_from = toPoseMsg(*loop.odom_pose_from);
   if (loop.odom_pose_to) msg.odom_pose_to = toPoseMsg(*loop.odom_pose_to);
   msg.match_score = loop.match_score;
+  msg.new_place_probability = loop.new_place_probability;
   msg.fitness_m2 = loop.fitness_m2;
   msg.inliers = static_cast<std::uint32_t>(std::max(0, loop.inliers));
   msg.method = loop.method;

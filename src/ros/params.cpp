@@ -146,6 +146,9 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("min_correspondences", p.min_correspondences);
   reader.read("loop_exclusion_s", p.loop_exclusion_s);
   reader.read("max_candidates", p.max_candidates);
+  reader.read("min_place_probability", p.min_place_probability);
+  reader.read("new_place_prior", p.fabmap.new_place_prior);
+  reader.read("motion_prior_weight", p.fabmap.motion_prior_weight);
   reader.read("complete_places", p.complete_places);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);

@@ -131,6 +131,9 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
   EXPECT_EQ(loop.covariance, best->verification.covariance);
   EXPECT_FALSE(loop.odom_pose_from) << "described without odometry";
   EXPECT_EQ(loop.match_score, best->score);
+  EXPECT_EQ(loop.new_place_probability, best->new_place_probability);
+  EXPECT_GE(best->new_place_probability, 0.0) << "FAB-MAP reports p(new)";
+  EXPECT_LT(best->new_place_probability, 1.0);
   EXPECT_EQ(loop.inliers, best->verification.inliers);
   EXPECT_EQ(loop.fitness_m2, best->verification.fitness_m2);
   EXPECT_EQ(loop.method, "fabmap");

@@ -3,6 +3,7 @@
 // 1.0, vocabulary training, quantisation and files.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -143,6 +144,71 @@ TEST_F(Fabmap, Fabmap2GivesTheSamePosteriorsAsFabmap1) {
     ASSERT_EQ(p1.size(), p2.size());
     for (std::size_t i = 0; i < p1.size(); ++i) ASSERT_NEAR(p1[i], p2[i], 1e-9) << k << " " << i;
   }
+}
+
+TEST_F(Fabmap, TheNewPlacePriorMakesUnfamiliarScansNewAndRevisitsNot) {
+  const std::vector<WordSet> samples(training_.begin(), training_.begin() + 300);
+  FabMap2 fabmap(model_, samples);
+  for (std::size_t k = 1000; k < 1050; ++k) fabmap.addPlace(training_[k]);
+  std::vector<bool> all(fabmap.places(), true);
+  const auto prior = placePrior(all, {}, model_.params());
+  // Unlike every place: only rare words, none of the chain.
+  const auto unfamiliar = fabmap.posterior({9, 10, 11}, prior);
+  EXPECT_GT(unfamiliar.back(), 0.5);
+  EXPECT_GT(unfamiliar.back(), 5 * fabmap.posterior({9, 10, 11}).back())
+      << "a uniform prior gives new only 1 / (places + 1) of it";
+  // A revisit of a distinctive place (two rare words).
+  const WordSet distinctive{0, 1, 2, 3, 4, 9, 10};
+  fabmap.addPlace(distinctive);
+  all.push_back(true);
+  const auto known = fabmap.posterior(distinctive, placePrior(all, {}, model_.params()));
+  EXPECT_LT(known.back(), 0.2);
+  EXPECT_GT(known[fabmap.places() - 1], 0.5);
+  EXPECT_NEAR(std::accumulate(known.begin(), known.end(), 0.0), 1.0, 1e-12);
+}
+
+TEST_F(Fabmap, ExcludedPlacesCarryNoMass) {
+  const std::vector<WordSet> samples(training_.begin(), training_.begin() + 300);
+  FabMap2 fabmap(model_, samples);
+  fabmap.addPlace({0, 1, 2, 3, 9});
+  fabmap.addPlace({8, 10});
+  fabmap.addPlace({11});
+  const auto prior = placePrior({true, false, true}, {}, model_.params());
+  EXPECT_EQ(prior[1], 0.0);
+  const auto p = fabmap.posterior({8, 10}, prior);  // place 1's own words
+  EXPECT_EQ(p[1], 0.0) << "not even the smoothing's share";
+  EXPECT_NEAR(p[0] + p[2] + p[3], 1.0, 1e-12);
+  EXPECT_THROW(fabmap.posterior({8, 10}, {0.5, 0.5}), std::invalid_argument);
+}
+
+TEST(PlacePrior, SumsToOneAndFollowsThePreviousQueryForward) {
+  FabMapParams params;
+  const std::vector<bool> all(10, true);
+  const auto uniform = placePrior(all, {}, params);
+  ASSERT_EQ(uniform.size(), 11U);
+  EXPECT_DOUBLE_EQ(uniform.back(), 0.9);
+  EXPECT_NEAR(uniform[3], 0.01, 1e-15);
+  // The query before was at place 4 (over 9 places then: 10 entries).
+  std::vector<double> previous(10, 0.0);
+  previous[4] = 0.8;
+  previous.back() = 0.2;
+  const auto moved = placePrior(all, previous, params);
+  EXPECT_NEAR(std::accumulate(moved.begin(), moved.end(), 0.0), 1.0, 1e-12);
+  EXPECT_EQ(std::max_element(moved.begin(), moved.end() - 1) - moved.begin(), 5) << "forward";
+  EXPECT_NEAR(moved[4], moved[3], 1e-15);
+  EXPECT_GT(moved[4], moved[0]);
+  // What cannot be matched gets nothing, and the rest still sums to one.
+  std::vector<bool> some = all;
+  some[5] = some[6] = false;
+  const auto gated = placePrior(some, previous, params);
+  EXPECT_EQ(gated[5], 0.0);
+  EXPECT_NEAR(std::accumulate(gated.begin(), gated.end(), 0.0), 1.0, 1e-12);
+  // Sure the query before was new: uniform again.
+  std::vector<double> was_new(10, 0.0);
+  was_new.back() = 1.0;
+  EXPECT_EQ(placePrior(all, was_new, params), uniform);
+  // No place may be matched: new for sure.
+  EXPECT_EQ(placePrior({false, false}, {}, params), (std::vector<double>{0.0, 0.0, 1.0}));
 }
 
 TEST(Vocabulary, KMeansFindsBlobsQuantizesAndRoundTrips) {

@@ -400,12 +400,14 @@ TEST(Conversions, LoopClosureRoundTrip) {
   loop.odom_pose_from = somePose(-4.0, 1.1);
   loop.odom_pose_to = somePose(7.0, -0.4);
   loop.match_score = 0.75;
+  loop.new_place_probability = 0.125;
   loop.fitness_m2 = 0.04;
   loop.inliers = 31;
   loop.method = "fabmap";
   core::backend::LoopClosureData back;
   ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
   EXPECT_EQ(back.match_score, 0.75);
+  EXPECT_EQ(back.new_place_probability, 0.125);
   EXPECT_EQ(back.fitness_m2, 0.04);
   EXPECT_EQ(back.inliers, 31);
   EXPECT_EQ(back.method, "fabmap");

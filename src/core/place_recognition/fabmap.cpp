@@ -36,6 +36,8 @@ std::vector<std::string> FabMapParams::validate() const {
   check.require(p_z_given_not_e < p_z_given_e,
                 "p_z_given_not_e must be below p_z_given_e (a word is likelier where it exists)");
   check.inRange("smoothing", smoothing, 0.0, 1.0);
+  check.inHalfOpenRange("new_place_prior", new_place_prior, 0.0, 1.0);
+  check.inRange("motion_prior_weight", motion_prior_weight, 0.0, 1.0);
   return check.errors();
 }
 
@@ -74,14 +76,61 @@ FabMapModel::FabMapModel(const ChowLiuTree& tree, const FabMapParams& params)
 }
 
 std::vector<double> posteriorFromLogLikelihoods(const std::vector<double>& log_likelihoods,
-                                                double smoothing) {
-  const double total = logSumExp(log_likelihoods);
-  std::vector<double> posterior;
-  const double n = static_cast<double>(log_likelihoods.size());
-  for (double l : log_likelihoods) {
-    posterior.push_back(smoothing * std::exp(l - total) + (1 - smoothing) / n);
+                                                double smoothing,
+                                                const std::vector<double>& prior) {
+  if (!prior.empty() && prior.size() != log_likelihoods.size()) {
+    throw std::invalid_argument("a prior needs one entry per log-likelihood");
+  }
+  const auto allowed = [&](std::size_t i) { return prior.empty() || prior[i] > 0.0; };
+  std::vector<double> joint;  // log p(Z | L_i) p(L_i), of the entries allowed
+  for (std::size_t i = 0; i < log_likelihoods.size(); ++i) {
+    if (allowed(i))
+      joint.push_back(log_likelihoods[i] + (prior.empty() ? 0.0 : std::log(prior[i])));
+  }
+  const double total = logSumExp(joint);
+  const double n = static_cast<double>(joint.size());
+  std::vector<double> posterior(log_likelihoods.size(), 0.0);
+  for (std::size_t i = 0, j = 0; i < log_likelihoods.size(); ++i) {
+    if (allowed(i)) posterior[i] = smoothing * std::exp(joint[j++] - total) + (1 - smoothing) / n;
   }
   return posterior;
+}
+
+std::vector<double> placePrior(const std::vector<bool>& eligible,
+                               const std::vector<double>& previous, const FabMapParams& params) {
+  const std::size_t n = eligible.size();
+  const auto eligible_count =
+      static_cast<double>(std::count(eligible.begin(), eligible.end(), true));
+  std::vector<double> prior(n + 1, 0.0);
+  if (eligible_count == 0) {
+    prior[n] = 1.0;
+    return prior;
+  }
+  prior[n] = params.new_place_prior;
+  // The previous posterior moved along the path: to the next place 0.5, stays 0.25, back 0.25.
+  std::vector<double> moved(n, 0.0);
+  double moved_total = 0.0;
+  const std::size_t previous_places = previous.empty() ? 0 : std::min(previous.size() - 1, n);
+  for (std::size_t j = 0; j < previous_places; ++j) {
+    const std::pair<std::ptrdiff_t, double> kernel[] = {{1, 0.5}, {0, 0.25}, {-1, 0.25}};
+    for (const auto& [step, share] : kernel) {
+      const auto i = static_cast<std::ptrdiff_t>(j) + step;
+      if (i < 0 || i >= static_cast<std::ptrdiff_t>(n) || !eligible[static_cast<std::size_t>(i)]) {
+        continue;
+      }
+      moved[static_cast<std::size_t>(i)] += previous[j] * share;
+      moved_total += previous[j] * share;
+    }
+  }
+  const double following =
+      moved_total > 0.0 ? params.motion_prior_weight * (1.0 - previous.back()) : 0.0;
+  const double places = 1.0 - params.new_place_prior;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!eligible[i]) continue;
+    prior[i] = places * ((1.0 - following) / eligible_count +
+                         (moved_total > 0.0 ? following * moved[i] / moved_total : 0.0));
+  }
+  return prior;
 }
 
 FabMap::FabMap(const FabMapModel& model, std::vector<WordSet> samples, NewPlaceMethod new_place)
@@ -176,8 +225,9 @@ std::vector<double> FabMap2::logLikelihoods(const WordSet& observation) const {
   return result;
 }
 
-std::vector<double> FabMap2::posterior(const WordSet& observation) const {
-  return posteriorFromLogLikelihoods(logLikelihoods(observation), model_.params().smoothing);
+std::vector<double> FabMap2::posterior(const WordSet& observation,
+                                       const std::vector<double>& prior) const {
+  return posteriorFromLogLikelihoods(logLikelihoods(observation), model_.params().smoothing, prior);
 }
 
 }  // namespace ccir_mapping::core::place_recognition

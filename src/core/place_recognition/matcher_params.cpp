@@ -19,11 +19,13 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inRange("min_correspondences", min_correspondences, 0, 10000);
   check.inRange("loop_exclusion_s", loop_exclusion_s, 0.0, 3600.0);
   check.inRange("max_candidates", max_candidates, 1, 1000);
+  check.inRange("min_place_probability", min_place_probability, 0.0, 1.0);
   check.inRange("complete_places", complete_places, 1, 1000000);
   check.inRange("own_loop_gate_m_per_m", own_loop_gate_m_per_m, 0.0, 10.0);
   check.inRange("own_loop_gate_rad_per_m", own_loop_gate_rad_per_m, 0.0, 10.0);
   auto errors = check.errors();
   for (auto& error : verification.validate()) errors.push_back(std::move(error));
+  for (auto& error : fabmap.validate()) errors.push_back(std::move(error));
   return errors;
 }
 

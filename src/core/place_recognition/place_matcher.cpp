@@ -64,7 +64,7 @@ PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const Pl
       model_(std::move(model)),
       extractor_(required(model_).features),
       verifier_(params_.verification),
-      fabmap_model_(model_->tree, FabMapParams{}),
+      fabmap_model_(model_->tree, params_.fabmap),
       own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))),
       kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))) {}
 
@@ -93,6 +93,7 @@ backend::LoopClosureData PlaceMatcher::loopClosure(
     loop.odom_pose_to = query_odom_pose;
   }
   loop.match_score = match.score;
+  loop.new_place_probability = match.new_place_probability;
   loop.fitness_m2 = match.verification.fitness_m2;
   loop.inliers = match.verification.inliers;
   loop.method = toString(params_.method);
@@ -200,17 +201,26 @@ std::vector<PlaceMatcher::TeammateCorrespondence> PlaceMatcher::teammateCorrespo
 
 std::vector<MatchCandidate> PlaceMatcher::match(
     PlaceSet& set, const DescribedKeyframe& query,
-    const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {
+    const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from,
+    std::vector<double>* motion) const {
   const std::vector<int> shared = set.fabmap.sharedWords(query.words);
   // Ranked places: (index, score).
   std::vector<std::pair<std::size_t, double>> ranked;
+  double new_place_probability = -1.0;
   if (params_.method == MatchMethod::kFabmap) {
-    const std::vector<double> posterior = set.fabmap.posterior(query.words);
+    // Places the query may not match are left out of the prior, so they take no mass.
+    std::vector<bool> allowed(set.places.size());
+    for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = eligible(set.places[i]);
+    const std::vector<double> posterior = set.fabmap.posterior(
+        query.words, placePrior(allowed, motion ? *motion : std::vector<double>{}, params_.fabmap));
+    new_place_probability = posterior.back();
     for (std::size_t i = 0; i < set.places.size(); ++i) {
-      if (eligible(set.places[i]) && shared[i] >= params_.min_correspondences) {
+      if (allowed[i] && shared[i] >= params_.min_correspondences &&
+          posterior[i] >= params_.min_place_probability) {
         ranked.emplace_back(i, posterior[i]);
       }
     }
+    if (motion) *motion = posterior;
     std::stable_sort(ranked.begin(), ranked.end(),
                      [](const auto& a, const auto& b) { return a.second > b.second; });
   } else {
@@ -228,6 +238,7 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     c.robot = set.robots[index];
     c.keyframe = place.id;
     c.score = score;
+    c.new_place_probability = new_place_probability;
     c.correspondences = shared[index];
     const registration::PreparedScan& scan = ready(set, index);
     c.verification =
@@ -262,7 +273,8 @@ void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate
 std::vector<MatchCandidate> PlaceMatcher::addOwn(DescribedKeyframe keyframe) {
   const Stamp newest = keyframe.stamp - fromSeconds(params_.loop_exclusion_s);
   auto candidates = match(
-      *own_, keyframe, [newest](const DescribedKeyframe& k) { return k.stamp <= newest; }, false);
+      *own_, keyframe, [newest](const DescribedKeyframe& k) { return k.stamp <= newest; }, false,
+      &own_posterior_);
   for (auto& c : candidates) gateByOdometry(keyframe, c);
   own_->add("", std::move(keyframe));
   remember(*own_, own_->places.size() - 1);

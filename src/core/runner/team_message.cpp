@@ -28,8 +28,9 @@ struct Size {
     return header({}) + text(m.receiver) + text(m.provider) + kLength + 8 * m.ids.size();
   }
   std::size_t operator()(const backend::LoopClosureData& m) const {
+    // match_score, new_place_probability, fitness_m2, inliers.
     return header({}) + text(m.robot_from) + 8 + text(m.robot_to) + 8 + 3 * kPose + 36 * 8 + 8 + 8 +
-           4 + text(m.method);
+           8 + 4 + text(m.method);
   }
   std::size_t operator()(const WireScan& m) const {
     return header(m.robot + "/velodyne") + text(m.robot) + 8 + text(m.robot + "/odom") + kPose + 4 +

@@ -26,6 +26,8 @@ struct LoopClosureData {
   /// place-recognition score, the registration's mean squared distance (m^2) and inliers, and
   /// the method ("fabmap" or "histogram").
   double match_score = 0.0;
+  /// FAB-MAP's p(new place) for the query the closure was found with; -1: the method has none.
+  double new_place_probability = -1.0;
   double fitness_m2 = 0.0;
   int inliers = 0;
   std::string method;

@@ -19,8 +19,17 @@ struct FabMapParams {
   /// Detector model: p(z = 1 | e = 1) and p(z = 1 | e = 0).
   double p_z_given_e = 0.39;
   double p_z_given_not_e = 0.0;
-  /// Posterior smoothing sigma: p <- sigma p + (1 - sigma) / n.
+  /// Posterior smoothing sigma: p <- sigma p + (1 - sigma) / n over the n places that may
+  /// hold mass and the new place.
   double smoothing = 0.99;
+  /// p(L_new) before the observation (openFABMAP and the paper: 0.9): most scans are of places
+  /// not yet mapped, and a uniform prior would give "new" only 1 / (places + 1) of it however
+  /// unfamiliar the scan.
+  double new_place_prior = 0.9;
+  /// Motion prior (placePrior): of the mapped places' share, this much, times the previous
+  /// query's belief in a mapped place (1 - its p(new)), follows that query's posterior to the
+  /// neighbouring places; the rest is uniform. 0: uniform.
+  double motion_prior_weight = 0.5;
 
   std::vector<std::string> validate() const;
 };
@@ -45,9 +54,23 @@ class FabMapModel {
   std::vector<std::array<std::array<std::array<double, 3>, 2>, 2>> table_;
 };
 
-/// Normalised, smoothed posterior from log-likelihoods (uniform prior).
+/// Normalised, smoothed posterior from log-likelihoods and a prior with one entry for each (a
+/// place whose prior is 0 is excluded before normalising and gets no mass, also from the
+/// smoothing); an empty prior is uniform.
 std::vector<double> posteriorFromLogLikelihoods(const std::vector<double>& log_likelihoods,
-                                                double smoothing);
+                                                double smoothing,
+                                                const std::vector<double>& prior = {});
+
+/// FAB-MAP's prior p(L_i | Z^{k-1}) over places 0..n-1 along one robot's path (eligible[i]:
+/// it may be matched; the others get 0) and then the new place, which gets new_place_prior
+/// (1 when no place is eligible). The places' share is uniform over the eligible ones, except
+/// for motion_prior_weight x (1 - previous p(new)) of it that follows `previous` (the posterior
+/// of the query before, over the first previous.size() - 1 places then new; empty: none) to
+/// neighbouring places: the next one 0.5, the same one and the one before 0.25 each (the
+/// forward bias of openFABMAP's motion model), renormalised over the eligible places, which
+/// openFABMAP omits. Sums to 1.
+std::vector<double> placePrior(const std::vector<bool>& eligible,
+                               const std::vector<double>& previous, const FabMapParams& params);
 
 enum class NewPlaceMethod { kSampled, kMeanField };
 
@@ -82,7 +105,9 @@ class FabMap2 {
   std::size_t places() const { return default_score_.size() - samples_; }
   /// Relative log-likelihoods: log p(Z | L_i) minus a constant of the query, then the new place.
   std::vector<double> logLikelihoods(const WordSet& observation) const;
-  std::vector<double> posterior(const WordSet& observation) const;
+  /// p(L_i | Z) for each place, then p(L_new | Z), under `prior` (placePrior; empty: uniform).
+  std::vector<double> posterior(const WordSet& observation,
+                                const std::vector<double>& prior = {}) const;
   /// For each place, how many words of `observation` it holds (from the inverted index); word
   /// ids outside the vocabulary are ignored.
   std::vector<int> sharedWords(const WordSet& observation) const;

@@ -6,6 +6,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/registration/verification_params.h"
 
 namespace ccir_mapping::core::place_recognition {
@@ -28,6 +29,11 @@ struct MatcherParams {
   /// Best-ranked places of each query that are geometrically verified. Verification is cheap
   /// (~6 ms on a simulated keyframe) and in an aliased mine the true place is rarely first.
   int max_candidates = 20;
+  /// FAB-MAP's decision rule: of those, only places whose posterior is at least this are
+  /// verified (0: the best-ranked max_candidates, whatever their probability).
+  double min_place_probability = 0.0;
+  /// FAB-MAP's detector model, smoothing and priors.
+  FabMapParams fabmap;
   /// Places (own keyframes and teammates' scans) kept ready for verification, the most
   /// recently used: the others keep ~1/6 of it (their clouds, features and GICP covariances in
   /// single precision, ~0.25 MB) and are made ready again when a query ranks them by rebuilding

@@ -46,6 +46,9 @@ struct MatchCandidate {
   KeyframeId keyframe = 0;
   /// FAB-MAP posterior, or histogram votes.
   double score = 0.0;
+  /// FAB-MAP: the query's p(new place) (the same for each of its candidates); the histogram
+  /// has none: -1.
+  double new_place_probability = -1.0;
   /// c_k: words shared with the query.
   int correspondences = 0;
   /// "from" is always this robot's keyframe (for own loops the older one), "to" the other.
@@ -138,9 +141,12 @@ class PlaceMatcher {
 
   /// Verified candidates among `set`'s places accepted by `eligible`, best-ranked first;
   /// `query_is_from`: the query is the own keyframe ("from") rather than the place.
+  /// `motion`: null for a uniform prior over the places, else the posterior of the query before
+  /// along the same path (empty at first) for FAB-MAP's motion prior, replaced by this one's.
   std::vector<MatchCandidate> match(PlaceSet& set, const DescribedKeyframe& query,
                                     const std::function<bool(const DescribedKeyframe&)>& eligible,
-                                    bool query_is_from) const;
+                                    bool query_is_from,
+                                    std::vector<double>* motion = nullptr) const;
   void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
   /// The place's scan, complete for verification (ScanVerifier::complete).
   const registration::PreparedScan& ready(PlaceSet& set, std::size_t index) const;
@@ -158,6 +164,8 @@ class PlaceMatcher {
   /// Teammates' word sets by robot and keyframe.
   std::map<std::string, std::map<KeyframeId, WordSet>> teammate_words_;
   double path_m_ = 0.0;  // odometry path length of the own keyframes so far
+  /// FAB-MAP's posterior for the last own keyframe, over the own places then new.
+  std::vector<double> own_posterior_;
   /// Places whose scans are complete, least recently used first (own and teammates').
   mutable std::deque<std::pair<PlaceSet*, std::size_t>> recent_;
 };
