@@ -6,7 +6,9 @@
 // CCIR's costs with all of them kept: ms to build one offer for each of two teammates (one of
 // which holds a part already) and to choose the requests for an offer (CSQMI of each offered
 // scan on the map). Prints JSON. Targets: MI <= 10 ms per scan, lazy ranking <= 200 ms, an offer
-// <= 100 ms with 500 kept keyframes and 2 peers, requests <= 50 ms.
+// <= 100 ms with 500 kept keyframes and 2 peers, requests <= 50 ms. Last, the rebuild window's
+// base map: a map of every keyframe, the ms to snapshot and restore it against the ms its
+// keyframes took to insert, and its MB in memory and as a snapshot.
 #include <chrono>
 #include <cstdio>
 #include <optional>
@@ -116,6 +118,7 @@ struct Results {
   bool same_choice = false;
   double footprint_ms = 0, offer_ms = 0, requests_ms = 0;
   std::size_t offered = 0, offered_to_requester = 0, requested = 0;
+  double insert_all_ms = 0, snapshot_ms = 0, restore_ms = 0, map_mb = 0, snapshot_mb = 0;
 };
 
 /// The map's costs on `frames`: the first `held` make the receiver's map, the rest are the
@@ -236,6 +239,22 @@ void measureRouting(const Options& o, const std::vector<Keyframe>& frames,
   r.requested = requests.empty() ? 0 : requests.front().ids.size();
 }
 
+/// What settling costs: snapshot and restore of a map of every keyframe, against inserting them.
+void measureSnapshot(const Options& o, const std::vector<Keyframe>& frames, Results& r) {
+  info::OccupancyMap map(o.map);
+  auto start = std::chrono::steady_clock::now();
+  for (const auto& frame : frames) map.insert(frame.sensor_points, frame.pose);
+  r.insert_all_ms = millisecondsSince(start);
+  start = std::chrono::steady_clock::now();
+  const auto snapshot = map.snapshot();
+  r.snapshot_ms = millisecondsSince(start);
+  start = std::chrono::steady_clock::now();
+  const info::OccupancyMap restored(o.map, snapshot);
+  r.restore_ms = millisecondsSince(start);
+  r.map_mb = static_cast<double>(map.tree().memoryUsage()) / 1e6;
+  r.snapshot_mb = static_cast<double>(snapshot.tree.size()) / 1e6;
+}
+
 Results run(const Options& o) {
   sim::WorldParams world_params;
   world_params.mine_pillars_x = 3;
@@ -246,6 +265,7 @@ Results run(const Options& o) {
   info::OccupancyMap map(o.map);  // the receiver's believed map
   measureMap(o, frames, map, r);
   measureRouting(o, frames, map, r);
+  measureSnapshot(o, frames, r);
   return r;
 }
 
@@ -262,13 +282,16 @@ void report(const Options& o, const Results& r) {
       "  \"routing\": {\"kept\": %d, \"peers\": 2, \"footprint_ms_per_keyframe\": %.1f, "
       "\"offer_ms_per_peer\": %.1f, \"offer_target_ms\": 100, \"scans_offered\": %zu, "
       "\"requests_ms\": %.1f, \"requests_target_ms\": 50, \"offered_to_requester\": %zu, "
-      "\"requested\": %zu}\n}\n",
+      "\"requested\": %zu},\n"
+      "  \"base_map\": {\"keyframes\": %d, \"insert_ms\": %.0f, \"snapshot_ms\": %.0f, "
+      "\"restore_ms\": %.0f, \"map_mb\": %.1f, \"snapshot_mb\": %.1f}\n}\n",
       o.map.resolution_m, r.points_per_keyframe, r.insert_ms, r.scan_mi_ms, r.scan_mi_beams,
       r.simulated_mi_ms, static_cast<int>(16 * std::ceil(360 / o.map.simulated_azimuth_step_deg)),
       r.gains_ms, r.blocks_per_keyframe, o.choose, o.candidates, r.naive_ms, r.lazy_ms,
       r.naive_ms / r.lazy_ms, r.naive_evaluations, r.lazy_evaluations,
       r.same_choice ? "true" : "false", o.held + o.candidates, r.footprint_ms, r.offer_ms,
-      r.offered, r.requests_ms, r.offered_to_requester, r.requested);
+      r.offered, r.requests_ms, r.offered_to_requester, r.requested, o.held + o.candidates,
+      r.insert_all_ms, r.snapshot_ms, r.restore_ms, r.map_mb, r.snapshot_mb);
 }
 
 }  // namespace

@@ -188,6 +188,17 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "a candidate is true within this true distance [m]")(
       "candidates", po::value<int>(&params.max_candidates)->default_value(params.max_candidates),
       "best-ranked places of each query that are verified")(
+      "min-place-probability",
+      po::value<double>(&params.min_place_probability)->default_value(params.min_place_probability),
+      "FAB-MAP: only candidates with at least this posterior are verified")(
+      "new-place-prior",
+      po::value<double>(&params.fabmap.new_place_prior)
+          ->default_value(params.fabmap.new_place_prior),
+      "FAB-MAP: prior probability of a new place")(
+      "motion-prior-weight",
+      po::value<double>(&params.fabmap.motion_prior_weight)
+          ->default_value(params.fabmap.motion_prior_weight),
+      "FAB-MAP: share of the places' prior following the previous own query's posterior")(
       "min-correspondences",
       po::value<int>(&params.min_correspondences)->default_value(params.min_correspondences),
       "c_k,min: shared words (FAB-MAP) or votes (histogram) a candidate needs")(

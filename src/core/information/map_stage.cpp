@@ -1,5 +1,7 @@
 #include "ccir_mapping/core/information/map_stage.h"
 
+#include <malloc.h>
+
 #include <chrono>
 
 namespace ccir_mapping::core::information {
@@ -105,6 +107,9 @@ bool MapStage::rebuildIfDue(double now_s) {
           busy_ = rebuilding_ = false;
         }
         rebuild_done_.notify_all();
+        // The map that went held millions of small nodes; glibc keeps their pages unless
+        // asked, and a resident size that grows with every rebuild looks like a leak.
+        malloc_trim(0);
         if (rebuild && hooks_.rebuilt) {
           hooks_.rebuilt(
               scans.size(),
