@@ -45,8 +45,7 @@ class MatcherNodelet final : public PipelineNodelet {
 
   /// Features, words and verification cloud of an own keyframe or a teammate's, or nullopt
   /// (dropped from `flow`).
-  std::optional<pr::DescribedKeyframe> describe(const Keyframe& keyframe, bool own,
-                                                const char* flow) {
+  std::optional<pr::DescribedKeyframe> describe(const Keyframe& keyframe, const char* flow) {
     const auto pose = conversions::toPose(keyframe.odom_pose);
     pcl::PointCloud<pcl::PointXYZINormal> cloud;
     std::optional<std::string> error = conversions::toKeyframeCloud(keyframe.cloud, &cloud);
@@ -82,7 +81,7 @@ class MatcherNodelet final : public PipelineNodelet {
 
   void onKeyframe(const Keyframe& keyframe) {
     matcher_->addOwnTravel(keyframe.travelled_m);  // also when the keyframe is dropped
-    auto described = describe(keyframe, true, "keyframes");
+    auto described = describe(keyframe, "keyframes");
     if (!described) return;
     publish(topics::kFeatures,
             boost::make_shared<const KeyframeFeatures>(conversions::toKeyframeFeaturesMsg(
@@ -123,7 +122,7 @@ class MatcherNodelet final : public PipelineNodelet {
       return drop("scans (own)",
                   "ignoring scans from this robot itself on the inbox (bridge loop?)");
     }
-    auto described = describe(scan, false, "teammate_scans");
+    auto described = describe(scan, "teammate_scans");
     if (!described) return;
     publishBest(measured("match", [&] { return matcher_->matchTeammate(*described); }), scan.robot,
                 scan.id, scan.header.stamp, described->odom_pose);

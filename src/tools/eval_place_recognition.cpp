@@ -5,7 +5,10 @@
 // method: TP/FP of each query's best-ranked place and of all verified candidates (thesis Table
 // 4.1), then precision/recall of the best verified candidate per query, and after the team-frame
 // EM the Backend runs on the verified inter-robot closures (poses from odometry, not ground
-// truth); recall is over the truly overlapping queries.
+// truth); recall is over the truly overlapping queries. Per method also recall@1 and @5 (a true
+// place among the first candidates) and precision-recall curves over the score of each query's
+// best-ranked place and of its verified closure, with their average precision.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -69,7 +72,8 @@ std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& w
                                                        path_m);
     k.odom_covariance.diagonal().tail<3>().setConstant(odom_noise_per_m.y() * odom_noise_per_m.y() *
                                                        path_m);
-    k.described = matcher.describe(keyframes.size(), b.stamp, *b.cloud, std::move(b.features));
+    k.described = matcher.describe(keyframes.size(), b.stamp, *b.cloud, std::move(b.features),
+                                   core::upInFrame(b.odom_pose));
     k.described.odom_pose = b.odom_pose;
     k.described.path_m = path_m;
     keyframes.push_back(std::move(k));
@@ -86,8 +90,44 @@ struct Counts {
   double precision() const { return tp + fp ? double(tp) / (tp + fp) : 1.0; }
 };
 
+/// A query's answer judged against the truth: its score (FAB-MAP posterior, histogram votes).
+struct Judged {
+  double score = 0.0;
+  bool truth = false;
+};
+
+/// Precision-recall over a score threshold: (recall, precision) from the highest score down,
+/// recall over `overlapping` queries; and its average precision (the area, step-wise).
+struct PrCurve {
+  std::vector<std::pair<double, double>> points;
+  double average_precision = 0.0;
+};
+
+PrCurve prCurve(std::vector<Judged> answers, int overlapping) {
+  std::stable_sort(answers.begin(), answers.end(),
+                   [](const Judged& a, const Judged& b) { return a.score > b.score; });
+  PrCurve curve;
+  int tp = 0, fp = 0;
+  double recall_before = 0.0;
+  for (std::size_t i = 0; i < answers.size(); ++i) {
+    (answers[i].truth ? tp : fp)++;
+    // Equal scores are one threshold.
+    if (i + 1 < answers.size() && answers[i + 1].score == answers[i].score) continue;
+    const double recall = overlapping ? double(tp) / overlapping : 0.0;
+    const double precision = double(tp) / (tp + fp);
+    curve.average_precision += precision * (recall - recall_before);
+    recall_before = recall;
+    curve.points.emplace_back(recall, precision);
+  }
+  return curve;
+}
+
 struct MethodResult {
   Counts best_ranked, candidates, verified, team_frame, own_candidates, own_verified;
+  /// Per query: the best-ranked place (before verification) and the closure verified.
+  std::vector<Judged> best_ranked_scores, verified_scores;
+  /// Truly overlapping queries with a true place among the first 1 and 5 candidates.
+  int true_in_top1 = 0, true_in_top5 = 0;
   /// The team transform's distance from the truth, when one was found.
   std::optional<core::Pose3> team_frame_error;
   /// The error left with exact loop-closure measurements (odometry drift alone).
@@ -118,12 +158,25 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   std::vector<core::Pose3> closure_truth;
   for (const Keyframe& q : queries) {
     const auto candidates = matcher.matchTeammate(q.described);
-    for (const auto& c : candidates) result.candidates.add(near(map[c.keyframe], q));
-    if (!candidates.empty()) result.best_ranked.add(near(map[candidates.front().keyframe], q));
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const bool truth = near(map[candidates[i].keyframe], q);
+      result.candidates.add(truth);
+      if (i == 0) {
+        result.best_ranked.add(truth);
+        result.best_ranked_scores.push_back({candidates[i].score, truth});
+      }
+      if (truth && i < 5) {
+        result.true_in_top1 += i == 0;
+        result.true_in_top5 +=
+            std::none_of(candidates.begin(), candidates.begin() + i,
+                         [&](const auto& c) { return near(map[c.keyframe], q); });
+      }
+    }
     const auto* best = pr::bestAccepted(candidates);
     if (!best) continue;
     const Keyframe& place = map[best->keyframe];
     result.verified.add(near(place, q));
+    result.verified_scores.push_back({best->score, near(place, q)});
     const core::Pose3 error =
         (place.world_pose.inverse() * q.world_pose).inverse() * best->verification.relative;
     const bool correct = error.translation().norm() < 0.5 &&
@@ -254,7 +307,10 @@ Results run(const Options& o) {
   const auto model = pr::PlaceModel::load(o.model_dir);
   const YAML::Node mission = YAML::LoadFile((fs::path(o.mission_dir) / "mission.yaml").string());
   if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
-  const pr::PlaceMatcher describer(o.params, model);
+  // Described once for every method: with Scan Context's descriptor, which the others ignore.
+  pr::MatcherParams describe_params = o.params;
+  describe_params.method = pr::MatchMethod::kScanContext;
+  const pr::PlaceMatcher describer(describe_params, model);
   std::vector<std::vector<Keyframe>> robots;
   core::Pose3 world_from_odom[2];
   for (int r = 0; r < 2; ++r) {
@@ -278,7 +334,8 @@ Results run(const Options& o) {
     for (const auto& k : robot) words += k.described.words.size();
   }
   results.words_per_keyframe = words / std::max<std::size_t>(1, map.size() + queries.size());
-  for (const pr::MatchMethod method : {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram}) {
+  for (const pr::MatchMethod method :
+       {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram, pr::MatchMethod::kScanContext}) {
     results.methods.emplace_back(method,
                                  evaluate(method, o.params, model, map, queries, o.true_distance_m,
                                           world_from_odom[0].inverse() * world_from_odom[1]));
@@ -309,6 +366,19 @@ void report(const Options& o, const Results& results) {
         pr::toString(method), r.best_ranked.tp, r.best_ranked.fp, r.candidates.tp, r.candidates.fp);
     stage("verified", r.verified, ",");
     stage("team_frame", r.team_frame, ",");
+    std::printf("      \"recall_at_1\": %.3f, \"recall_at_5\": %.3f,\n",
+                overlapping ? double(r.true_in_top1) / overlapping : 0.0,
+                overlapping ? double(r.true_in_top5) / overlapping : 0.0);
+    for (const auto& [name, answers] :
+         {std::pair{"best_ranked", &r.best_ranked_scores}, {"verified", &r.verified_scores}}) {
+      const PrCurve curve = prCurve(*answers, overlapping);
+      std::printf("      \"pr_%s\": {\"average_precision\": %.3f, \"recall_precision\": [", name,
+                  curve.average_precision);
+      for (std::size_t i = 0; i < curve.points.size(); ++i) {
+        std::printf("%s[%.4f, %.4f]", i ? ", " : "", curve.points[i].first, curve.points[i].second);
+      }
+      std::printf("]},\n");
+    }
     auto error = [](const char* name, const std::optional<core::Pose3>& e) {
       if (!e) return;
       std::printf("      \"%s\": {\"m\": %.3f, \"deg\": %.2f},\n", name, e->translation().norm(),

@@ -95,7 +95,8 @@ class PlaceMatcherTest : public ::testing::Test {
   DescribedKeyframe keyframe(const PlaceMatcher& matcher, KeyframeId id, double stamp_s,
                              int scene) const {
     const Scene& s = scenes_[static_cast<std::size_t>(scene)];
-    return matcher.describe(id, fromSeconds(stamp_s), s.cloud, s.features);
+    return matcher.describe(id, fromSeconds(stamp_s), s.cloud, s.features,
+                            Eigen::Vector3f::UnitZ());
   }
 
   std::shared_ptr<const PlaceModel> model_;
@@ -137,6 +138,29 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
   EXPECT_EQ(loop.inliers, best->verification.inliers);
   EXPECT_EQ(loop.fitness_m2, best->verification.fitness_m2);
   EXPECT_EQ(loop.method, "fabmap");
+}
+
+TEST_F(PlaceMatcherTest, ScanContextFindsOwnLoopsAndReportsItsMethod) {
+  MatcherParams params;
+  params.method = MatchMethod::kScanContext;
+  params.loop_exclusion_s = 30.0;
+  PlaceMatcher matcher(params, model_);
+  const DescribedKeyframe first = keyframe(matcher, 0, 0.0, 0);
+  ASSERT_TRUE(first.context) << "described for Scan Context";
+  EXPECT_FALSE(keyframe(PlaceMatcher(MatcherParams{}, model_), 0, 0.0, 0).context)
+      << "only with that method";
+  EXPECT_TRUE(matcher.addOwn(first).empty());
+  EXPECT_TRUE(matcher.addOwn(keyframe(matcher, 1, 5.0, 1)).empty());
+  const auto candidates = matcher.addOwn(keyframe(matcher, 2, 40.0, 0));
+  ASSERT_EQ(candidates.size(), 2U) << "both places older than the window";
+  EXPECT_EQ(candidates[0].keyframe, 0U) << "the same scene ranks first";
+  EXPECT_NEAR(candidates[0].score, 1.0, 1e-6);
+  EXPECT_LT(candidates[1].score, candidates[0].score);
+  const MatchCandidate* best = bestAccepted(candidates);
+  ASSERT_NE(best, nullptr);
+  EXPECT_EQ(best->keyframe, 0U);
+  EXPECT_EQ(matcher.loopClosure("robot_a", *best, "robot_a", 2).method, "scan_context");
+  EXPECT_EQ(best->new_place_probability, -1.0);
 }
 
 TEST_F(PlaceMatcherTest, OwnKeyframesCarryTheirOdometryAndPathLength) {

@@ -13,6 +13,7 @@
 
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
+#include "ccir_mapping/core/place_recognition/scan_context_index.h"
 
 namespace ccir_mapping::core::place_recognition {
 namespace {
@@ -299,6 +300,77 @@ TEST(HistogramMatcher, VotesForTheKeyframeSharingDescriptors) {
   ASSERT_EQ(only.size(), 1U);
   EXPECT_EQ(only.front().votes, 20);
   EXPECT_TRUE(HistogramMatcher(HistogramParams{}).candidates(query).empty());
+}
+
+/// A scan from the middle of a 30 x 30 m room (walls 4 m high) cluttered with boxes of
+/// random size and height, all placed from `seed`; the sensor at 1 m.
+pcl::PointCloud<pcl::PointXYZ> clutteredRoom(unsigned seed, double yaw_deg = 0.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> where(-12.0, 12.0), size(0.5, 3.0), height(0.3, 3.5);
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  const auto add = [&](double x, double y, double top) {
+    for (double z = -1.0; z <= top - 1.0; z += 0.25) cloud.push_back(pcl::PointXYZ(x, y, z));
+  };
+  for (double t = -15.0; t <= 15.0; t += 0.2) {
+    for (const auto& [x, y] : {std::pair{t, -15.0}, {t, 15.0}, {-15.0, t}, {15.0, t}}) {
+      add(x, y, 4.0);
+    }
+  }
+  for (int box = 0; box < 12; ++box) {
+    const double cx = where(rng), cy = where(rng), half = size(rng) / 2, top = height(rng);
+    if (std::hypot(cx, cy) < 3.0) continue;
+    for (double t = -half; t <= half; t += 0.1) {
+      for (const auto& [x, y] : {std::pair{cx + t, cy - half},
+                                 {cx + t, cy + half},
+                                 {cx - half, cy + t},
+                                 {cx + half, cy + t}}) {
+        add(x, y, top);
+      }
+    }
+  }
+  const Eigen::Matrix3f turn =
+      Eigen::AngleAxisf(static_cast<float>(yaw_deg * M_PI / 180), Eigen::Vector3f::UnitZ())
+          .toRotationMatrix();
+  for (auto& p : cloud) p.getVector3fMap() = turn * p.getVector3fMap();
+  return cloud;
+}
+
+TEST(ScanContext, AYawedCopyMatchesAtTheRightShift) {
+  ScanContextParams params;
+  const ScanContext place(clutteredRoom(1), params);
+  EXPECT_EQ(place.descriptor().rows(), 20);
+  EXPECT_EQ(place.descriptor().cols(), 60);
+  EXPECT_GT(place.ringKey().maxCoeff(), 0.5F);
+  // The same place seen with the sensor turned by -30 degrees: directions 30 degrees further
+  // round (5 of the 60 sectors).
+  const ScanContext turned(clutteredRoom(1, 30.0), params);
+  const auto match = scanContextDistance(place, turned, params);
+  EXPECT_LT(match.distance, 0.05);
+  EXPECT_EQ(match.shift, 5);
+  EXPECT_NEAR(match.yaw_rad, -30 * M_PI / 180, 1e-9);
+  const auto itself = scanContextDistance(place, place, params);
+  EXPECT_NEAR(itself.distance, 0.0, 1e-6);
+  EXPECT_EQ(itself.shift, 0);
+}
+
+TEST(ScanContext, ADifferentPlaceDoesNotMatchAndTheIndexFindsTheRightOne) {
+  ScanContextParams params;
+  ScanContextIndex index(params);
+  for (unsigned seed = 1; seed <= 30; ++seed) index.add(ScanContext(clutteredRoom(seed), params));
+  const ScanContext query(clutteredRoom(17, -102.0), params);
+  const auto matches = index.query(query, [](std::size_t) { return true; });
+  ASSERT_EQ(matches.size(), 10U) << "ring_key_candidates";
+  EXPECT_EQ(matches[0].index, 16U);
+  EXPECT_LT(matches[0].distance.distance, 0.05);
+  EXPECT_GT(matches[1].distance.distance, 3 * matches[0].distance.distance + 0.05)
+      << "another room";
+  const auto without = index.query(query, [](std::size_t i) { return i != 16; });
+  for (const auto& m : without) EXPECT_NE(m.index, 16U) << "not eligible";
+  EXPECT_FALSE(ScanContextParams{}.validate().size());
+  ScanContextParams bad;
+  bad.sectors = 2;
+  ASSERT_EQ(bad.validate().size(), 1U);
+  EXPECT_NE(bad.validate()[0].find("scan_context_sectors"), std::string::npos);
 }
 
 }  // namespace

@@ -7,11 +7,20 @@ namespace ccir_mapping::core::place_recognition {
 std::optional<MatchMethod> parseMatchMethod(std::string_view text) {
   if (text == "fabmap") return MatchMethod::kFabmap;
   if (text == "histogram") return MatchMethod::kHistogram;
+  if (text == "scan_context") return MatchMethod::kScanContext;
   return std::nullopt;
 }
 
 const char* toString(MatchMethod method) {
-  return method == MatchMethod::kFabmap ? "fabmap" : "histogram";
+  switch (method) {
+    case MatchMethod::kFabmap:
+      return "fabmap";
+    case MatchMethod::kHistogram:
+      return "histogram";
+    case MatchMethod::kScanContext:
+      return "scan_context";
+  }
+  return "?";
 }
 
 std::vector<std::string> MatcherParams::validate() const {
@@ -26,6 +35,7 @@ std::vector<std::string> MatcherParams::validate() const {
   auto errors = check.errors();
   for (auto& error : verification.validate()) errors.push_back(std::move(error));
   for (auto& error : fabmap.validate()) errors.push_back(std::move(error));
+  for (auto& error : scan_context.validate()) errors.push_back(std::move(error));
   return errors;
 }
 

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/place_recognition/scan_context_index.h"
 
 namespace ccir_mapping::core::place_recognition {
 namespace {
@@ -40,13 +41,15 @@ const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates
 class PlaceMatcher::PlaceSet {
  public:
   PlaceSet(const FabMapModel& model, const std::vector<WordSet>& samples,
-           const HistogramParams& histogram)
-      : fabmap(model, samples), histogram(histogram) {}
+           const HistogramParams& histogram, const ScanContextParams& scan_context)
+      : fabmap(model, samples), histogram(histogram), scan_context(scan_context) {}
 
   void add(const std::string& robot, DescribedKeyframe keyframe) {
     const auto index = static_cast<std::uint32_t>(places.size());
     fabmap.addPlace(keyframe.words);
     histogram.addKeyframe(index, keyframe.scan.features.descriptors);
+    // Every place has one with method scan_context, so the index's places are these.
+    if (keyframe.context) scan_context.add(*keyframe.context);
     index_of[{robot, keyframe.id}] = index;
     robots.push_back(robot);
     places.push_back(std::move(keyframe));
@@ -57,6 +60,7 @@ class PlaceMatcher::PlaceSet {
   std::map<std::pair<std::string, KeyframeId>, std::size_t> index_of;
   FabMap2 fabmap;
   HistogramMatcher histogram;
+  ScanContextIndex scan_context;
 };
 
 PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const PlaceModel> model)
@@ -65,8 +69,10 @@ PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const Pl
       extractor_(required(model_).features),
       verifier_(params_.verification),
       fabmap_model_(model_->tree, params_.fabmap),
-      own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))),
-      kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_))) {}
+      own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
+                                      params_.scan_context)),
+      kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
+                                       params_.scan_context)) {}
 
 PlaceMatcher::~PlaceMatcher() = default;
 
@@ -109,17 +115,30 @@ std::optional<Pose3> PlaceMatcher::placeOdomPose(KeyframeId id) const {
 DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
                                          const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                          const Eigen::Vector3f& up) const {
-  return describe(id, stamp, cloud, extractor_.extract(cloud, up));
+  return describe(id, stamp, cloud, extractor_.extract(cloud, up), up);
 }
 
 DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
                                          const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                                         features::LocalFeatures features) const {
+                                         features::LocalFeatures features,
+                                         const Eigen::Vector3f& up) const {
   DescribedKeyframe k;
   k.id = id;
   k.stamp = stamp;
   k.words = model_->vocabulary.quantize(features.descriptors);
   k.scan = verifier_.prepare(cloud, std::move(features));
+  if (params_.method == MatchMethod::kScanContext) {
+    // Scan Context bins by azimuth and height: in a frame whose z is up.
+    const Eigen::Matrix3f level =
+        Eigen::Quaternionf::FromTwoVectors(up, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+    pcl::PointCloud<pcl::PointXYZ> levelled;
+    levelled.reserve(cloud.size());
+    for (const auto& p : cloud) {
+      const Eigen::Vector3f q = level * p.getVector3fMap();
+      levelled.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+    }
+    k.context.emplace(levelled, params_.scan_context);
+  }
   return k;
 }
 
@@ -223,6 +242,11 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     if (motion) *motion = posterior;
     std::stable_sort(ranked.begin(), ranked.end(),
                      [](const auto& a, const auto& b) { return a.second > b.second; });
+  } else if (params_.method == MatchMethod::kScanContext) {
+    if (!query.context) throw std::invalid_argument("a Scan Context query needs its descriptor");
+    const auto matches = set.scan_context.query(
+        *query.context, [&](std::size_t i) { return eligible(set.places[i]); });
+    for (const auto& m : matches) ranked.emplace_back(m.index, 1.0 - m.distance.distance);
   } else {
     for (const auto& peak : set.histogram.candidates(query.scan.features.descriptors)) {
       if (eligible(set.places[peak.keyframe])) ranked.emplace_back(peak.keyframe, peak.votes);

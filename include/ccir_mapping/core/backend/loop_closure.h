@@ -24,7 +24,7 @@ struct LoopClosureData {
   std::optional<Pose3> odom_pose_to;
   /// How the finder found and verified it, for reports (the graph weighs the covariance): the
   /// place-recognition score, the registration's mean squared distance (m^2) and inliers, and
-  /// the method ("fabmap" or "histogram").
+  /// the method ("fabmap", "histogram" or "scan_context").
   double match_score = 0.0;
   /// FAB-MAP's p(new place) for the query the closure was found with; -1: the method has none.
   double new_place_probability = -1.0;

@@ -7,13 +7,14 @@
 #include <vector>
 
 #include "ccir_mapping/core/place_recognition/fabmap.h"
+#include "ccir_mapping/core/place_recognition/scan_context.h"
 #include "ccir_mapping/core/registration/verification_params.h"
 
 namespace ccir_mapping::core::place_recognition {
 
-/// FAB-MAP over bags of spin-image words, or the histogram-of-descriptors baseline.
-enum class MatchMethod { kFabmap, kHistogram };
-constexpr std::string_view kMatchMethodChoices = "fabmap | histogram";
+/// FAB-MAP over bags of spin-image words, the histogram-of-descriptors baseline, or Scan Context.
+enum class MatchMethod { kFabmap, kHistogram, kScanContext };
+constexpr std::string_view kMatchMethodChoices = "fabmap | histogram | scan_context";
 std::optional<MatchMethod> parseMatchMethod(std::string_view text);
 const char* toString(MatchMethod method);
 
@@ -34,6 +35,8 @@ struct MatcherParams {
   double min_place_probability = 0.0;
   /// FAB-MAP's detector model, smoothing and priors.
   FabMapParams fabmap;
+  /// Scan Context's grid and search.
+  ScanContextParams scan_context;
   /// Places (own keyframes and teammates' scans) kept ready for verification, the most
   /// recently used: the others keep ~1/6 of it (their clouds, features and GICP covariances in
   /// single precision, ~0.25 MB) and are made ready again when a query ranks them by rebuilding

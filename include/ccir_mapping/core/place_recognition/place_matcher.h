@@ -38,13 +38,15 @@ struct DescribedKeyframe {
   double path_m = 0.0;
   WordSet words;
   registration::PreparedScan scan;
+  /// With method scan_context only.
+  std::optional<ScanContext> context;
 };
 
 struct MatchCandidate {
   /// The place: an own keyframe (robot empty) or a kept scan of the teammate `robot`.
   std::string robot;
   KeyframeId keyframe = 0;
-  /// FAB-MAP posterior, or histogram votes.
+  /// FAB-MAP posterior, histogram votes, or 1 - the Scan Context distance.
   double score = 0.0;
   /// FAB-MAP: the query's p(new place) (the same for each of its candidates); the histogram
   /// has none: -1.
@@ -98,7 +100,7 @@ class PlaceMatcher {
   /// The same for features already extracted with model().features.
   DescribedKeyframe describe(KeyframeId id, Stamp stamp,
                              const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                             features::LocalFeatures features) const;
+                             features::LocalFeatures features, const Eigen::Vector3f& up) const;
 
   /// Why a teammate's word set cannot be used, or nullopt: made with another vocabulary (kind
   /// "other vocabulary"), or ids not sorted, unique and below the vocabulary's size ("malformed
