@@ -49,16 +49,19 @@ def evaluate(args, eval_flags, seed):
 def table(results):
     methods = list(METHODS)
     lines = ["| seed | overlapping | best-ranked TP/FP | verified TP/FP (precision, recall) "
-             "| recall@1 | recall@5 | AP best-ranked | AP verified |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| after the team-frame EM | recall@1 | recall@5 | AP best-ranked | AP verified |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for seed, r in results:
-        cells = {k: [] for k in ["best", "verified", "r1", "r5", "ap_b", "ap_v"]}
+        cells = {k: [] for k in ["best", "verified", "em", "r1", "r5", "ap_b", "ap_v"]}
         for m in methods:
             x = r["methods"][m]
             v = x["verified"]
             cells["best"].append("%d/%d" % (x["best_ranked_tp"], x["best_ranked_fp"]))
             cells["verified"].append("%d/%d (%.2f, %.2f)" % (v["tp"], v["fp"], v["precision"],
                                                              v["recall"]))
+            e = x["team_frame"]
+            cells["em"].append("%d/%d (%.2f, %.2f)" % (e["tp"], e["fp"], e["precision"], e["recall"])
+                               if e["tp"] + e["fp"] else "none")
             cells["r1"].append("%.2f" % x["recall_at_1"])
             cells["r5"].append("%.2f" % x["recall_at_5"])
             cells["ap_b"].append("%.2f" % x["pr_best_ranked"]["average_precision"])

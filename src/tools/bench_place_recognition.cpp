@@ -1,7 +1,9 @@
 // bench_place_recognition: milliseconds of a FAB-MAP query over 1000 mapped places (2.0 with its
 // inverted index, and 1.0 for comparison, same posteriors) on synthetic word sets, and of the
-// geometric verification of one candidate on the real 16-line revisit pair. Prints JSON.
-// Targets: FAB-MAP query <= 10 ms, verification <= 150 ms per candidate.
+// geometric verification of one candidate on the real 16-line revisit pair, and of a Scan
+// Context query over as many places (random clouds: the cost does not depend on what they
+// show). Prints JSON. Targets: FAB-MAP query <= 10 ms, verification <= 150 ms per candidate,
+// Scan Context query <= 5 ms.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,6 +18,7 @@
 
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
+#include "ccir_mapping/core/place_recognition/scan_context_index.h"
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/core/registration/scan_verifier.h"
 #include "command_line.h"
@@ -86,6 +89,8 @@ struct Results {
   /// (MatcherParams::complete_places), on the same real scan; its prepared points.
   double prepare_ms = -1.0, complete_again_ms = -1.0;
   std::size_t prepared_points = 0;
+  /// Scan Context: building one descriptor (10 000 points), one query over the places.
+  double scan_context_describe_ms = 0.0, scan_context_query_ms = 0.0;
 };
 
 /// FAB-MAP 2.0 and 1.0 over the same places and queries; the posteriors are compared, so the
@@ -114,6 +119,34 @@ void measureFabMap(const Options& o, Results& r) {
     }
   }
   r.fabmap1_ms = millisecondsSince(start) / 3;
+}
+
+/// Scan Context over o.places random clouds of 10 000 points within 30 m.
+void measureScanContext(const Options& o, Results& r) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> xy(-30.0F, 30.0F), z(-1.5F, 3.0F);
+  const pr::ScanContextParams params;
+  auto cloud = [&] {
+    pcl::PointCloud<pcl::PointXYZ> c;
+    for (int i = 0; i < 10000; ++i) c.push_back(pcl::PointXYZ(xy(rng), xy(rng), z(rng)));
+    return c;
+  };
+  pr::ScanContextIndex index(params);
+  double describe_ms = 0.0;
+  for (int i = 0; i < o.places; ++i) {
+    const auto c = cloud();
+    const auto start = std::chrono::steady_clock::now();
+    index.add(pr::ScanContext(c, params));
+    describe_ms += millisecondsSince(start);
+  }
+  r.scan_context_describe_ms = describe_ms / o.places;
+  std::vector<pr::ScanContext> queries;
+  for (int i = 0; i < 20; ++i) queries.emplace_back(cloud(), params);
+  std::size_t found = 0;
+  const auto start = std::chrono::steady_clock::now();
+  for (const auto& q : queries) found += index.query(q, [](std::size_t) { return true; }).size();
+  r.scan_context_query_ms = millisecondsSince(start) / queries.size();
+  if (found == 0) std::cerr << "bench_place_recognition: Scan Context found nothing\n";
 }
 
 /// The verification of the real 16-line revisit pair, when the data is there.
@@ -161,9 +194,12 @@ void report(const Options& o, const Results& r) {
       "  \"fabmap1_query_ms\": %.2f,\n  \"fabmap_target_ms\": 10,\n"
       "  \"fabmap1_vs_2_max_posterior_difference\": %.2g,\n  \"verification_ms\": %.1f,\n"
       "  \"verification_target_ms\": 150,\n  \"prepared_points\": %zu,\n"
-      "  \"prepare_ms\": %.1f,\n  \"complete_again_ms\": %.1f\n}\n",
+      "  \"prepare_ms\": %.1f,\n  \"complete_again_ms\": %.1f,\n"
+      "  \"scan_context_describe_ms\": %.2f,\n  \"scan_context_query_ms\": %.3f,\n"
+      "  \"scan_context_target_ms\": 5\n}\n",
       o.places, o.words, r.fabmap2_ms, r.fabmap1_ms, r.difference, r.verification_ms,
-      r.prepared_points, r.prepare_ms, r.complete_again_ms);
+      r.prepared_points, r.prepare_ms, r.complete_again_ms, r.scan_context_describe_ms,
+      r.scan_context_query_ms);
 }
 
 }  // namespace
@@ -173,6 +209,7 @@ int main(int argc, char** argv) {
   if (const auto exit_code = parse(argc, argv, &options)) return *exit_code;
   Results results;
   measureFabMap(options, results);
+  measureScanContext(options, results);
   measureVerification(options, results);
   report(options, results);
   return 0;
