@@ -29,12 +29,12 @@ struct MapperParams {
   /// moved more than this since it was inserted.
   double rebuild_shift_m = 0.2;
   double rebuild_rotation_deg = 1.0;
-  /// A rebuild waits this long per scan the last one placed (0: none, the default): it costs
-  /// ~70 ms of CPU per scan, so with a wait the rebuilds of a growing map take at most ~70 ms /
-  /// this of a core (~30 % at 0.25) instead of a share that grows with the map, and a map of 400
-  /// scans follows a correction within 100 s. Off by default until it is measured on the
-  /// rostests.
-  double rebuild_wait_s_per_scan = 0.0;
+  /// A rebuild waits this long per scan the last one placed (0: none): it costs ~60 ms of CPU
+  /// per scan, so with a wait rebuilds take at most ~60 ms / this of a core (~25 % at 0.25);
+  /// without one they run back to back while the optimised poses keep moving (a 300 s 3-robot
+  /// mission: 811 of a robot's 1023 CPU seconds). With rebuild_window_scans 400 a correction
+  /// shows within ~100 s.
+  double rebuild_wait_s_per_scan = 0.25;
   /// Rebuilds re-place only the newest this many placed scans (own and teammates', in the order
   /// they were placed). Once a quarter window more are placed, the older ones are settled:
   /// integrated once more, at their poses of that moment, into a compact base map (see
