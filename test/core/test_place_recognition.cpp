@@ -5,11 +5,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
 #include <random>
 #include <set>
+
+#include <pcl/io/pcd_io.h>
 
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
@@ -371,6 +374,29 @@ TEST(ScanContext, ADifferentPlaceDoesNotMatchAndTheIndexFindsTheRightOne) {
   bad.sectors = 2;
   ASSERT_EQ(bad.validate().size(), 1U);
   EXPECT_NE(bad.validate()[0].find("scan_context_sectors"), std::string::npos);
+}
+
+TEST(ScanContext, TheRealRevisitIsNearerThanTheOtherPlace) {
+  const char* env = std::getenv("CCIR_DATA_DIR");
+  const std::filesystem::path lidar =
+      std::filesystem::path(env ? env : CCIR_DEFAULT_DATA_DIR) / "lidar";
+  if (!std::filesystem::exists(lidar / "16line_1.pcd")) {
+    GTEST_SKIP() << "SKIPPED: real scans not found under " << lidar << " (set CCIR_DATA_DIR)";
+  }
+  const ScanContextParams params;
+  auto load = [&](const char* name) {
+    pcl::PointCloud<pcl::PointXYZ> scan;
+    EXPECT_EQ(pcl::io::loadPCDFile((lidar / name).string(), scan), 0) << name;
+    return ScanContext(scan, params);
+  };
+  const ScanContext first = load("16line_1.pcd");
+  const auto revisit = scanContextDistance(first, load("16line_2.pcd"), params);
+  const auto other = scanContextDistance(first, load("16line_other.pcd"), params);
+  std::printf("revisit %.3f (yaw %.0f deg), other place %.3f\n", revisit.distance,
+              revisit.yaw_rad * 180 / M_PI, other.distance);
+  EXPECT_LT(revisit.distance, other.distance);
+  // The verification finds the revisit turned by ~11 degrees: two 6-degree sectors.
+  EXPECT_NEAR(std::abs(revisit.yaw_rad) * 180 / M_PI, 11.0, 6.0);
 }
 
 }  // namespace
