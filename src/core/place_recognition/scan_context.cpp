@@ -8,7 +8,7 @@
 namespace ccir_mapping::core::place_recognition {
 namespace {
 
-/// Column j of `m` shifted by `shift` sectors.
+/// Column j + shift of a descriptor with `sectors` columns, wrapped around.
 Eigen::Index shifted(Eigen::Index j, int shift, Eigen::Index sectors) {
   return ((j + shift) % sectors + sectors) % sectors;
 }
