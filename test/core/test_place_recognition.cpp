@@ -351,6 +351,10 @@ TEST(ScanContext, AYawedCopyMatchesAtTheRightShift) {
   EXPECT_LT(match.distance, 0.05);
   EXPECT_EQ(match.shift, 5);
   EXPECT_NEAR(match.yaw_rad, -30 * M_PI / 180, 1e-9);
+  ScanContextParams coarse = params;
+  coarse.sectors = 30;
+  EXPECT_THROW(scanContextDistance(place, ScanContext(clutteredRoom(1), coarse), params),
+               std::invalid_argument);
   const auto itself = scanContextDistance(place, place, params);
   EXPECT_NEAR(itself.distance, 0.0, 1e-6);
   EXPECT_EQ(itself.shift, 0);

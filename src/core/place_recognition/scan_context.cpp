@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "ccir_mapping/core/common/param_check.h"
 
@@ -61,6 +62,10 @@ ScanContext::ScanContext(const pcl::PointCloud<pcl::PointXYZ>& points,
 
 ScanContextDistance scanContextDistance(const ScanContext& a, const ScanContext& b,
                                         const ScanContextParams& params) {
+  if (a.descriptor().rows() != b.descriptor().rows() ||
+      a.descriptor().cols() != b.descriptor().cols()) {
+    throw std::invalid_argument("Scan Context descriptors of different grids cannot be compared");
+  }
   const Eigen::Index sectors = a.descriptor().cols();
   // The shift that best aligns the sector keys (squared difference), then a search around it.
   int guess = 0;

@@ -63,7 +63,7 @@ struct ScanContextDistance {
 };
 
 /// Tries the shifts within shift_search_share x sectors of the one the sector keys suggest (all
-/// of them at 0.5).
+/// of them at 0.5). Throws std::invalid_argument when the two grids differ.
 ScanContextDistance scanContextDistance(const ScanContext& a, const ScanContext& b,
                                         const ScanContextParams& params);
 
