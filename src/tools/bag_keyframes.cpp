@@ -1,5 +1,9 @@
 #include "bag_keyframes.h"
 
+#include <filesystem>
+
+#include <yaml-cpp/yaml.h>
+
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -52,9 +56,33 @@ std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOpt
     if (result.outcome != core::preprocess::KeyframeStage::Outcome::kKeyframe) continue;
     k.odom_pose = *pose;
     k.cloud = std::move(result.cloud);
-    k.features = extractor.extract(*k.cloud, core::upInFrame(*pose));
+    k.features = extractor.extract(*k.cloud, core::upInFrame(*pose), &k.stats);
     consume(std::move(k));
     ++count;
   }
   return count;
+}
+
+std::vector<MissionBag> missionBags(const std::string& mission_dir) {
+  const std::filesystem::path dir(mission_dir);
+  std::vector<MissionBag> bags;
+  try {
+    const YAML::Node mission = YAML::LoadFile((dir / "mission.yaml").string());
+    for (const YAML::Node& robot : mission["robots"]) {
+      const YAML::Node p = robot["initial_pose_in_world"];
+      MissionBag bag;
+      bag.path = (dir / robot["bag"].as<std::string>()).string();
+      bag.world_from_odom = core::Pose3::Identity();
+      bag.world_from_odom.translation() << p["x"].as<double>(), p["y"].as<double>(),
+          p["z"].as<double>();
+      bag.world_from_odom.linear() = Eigen::Quaterniond(p["qw"].as<double>(), p["qx"].as<double>(),
+                                                        p["qy"].as<double>(), p["qz"].as<double>())
+                                         .normalized()
+                                         .toRotationMatrix();
+      bags.push_back(std::move(bag));
+    }
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error((dir / "mission.yaml").string() + ": " + e.what());
+  }
+  return bags;
 }

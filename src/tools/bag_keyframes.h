@@ -5,6 +5,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
@@ -16,6 +17,7 @@ struct BagKeyframe {
   std::optional<ccir_mapping::core::Pose3> true_pose;  // set when a truth topic is read
   ccir_mapping::core::preprocess::ScanPreprocessor::OutputCloud::Ptr cloud;
   ccir_mapping::core::features::LocalFeatures features;
+  ccir_mapping::core::features::ExtractionStats stats;
 };
 
 struct BagKeyframeOptions {
@@ -33,3 +35,13 @@ struct BagKeyframeOptions {
 std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOptions& options,
                                const ccir_mapping::core::features::FeatureExtractor& extractor,
                                const std::function<void(BagKeyframe&&)>& consume);
+
+/// One robot of a simulate_team output: its bag and where its odometry frame starts in the world.
+struct MissionBag {
+  std::string path;
+  ccir_mapping::core::Pose3 world_from_odom;
+};
+
+/// The robots listed in `mission_dir`/mission.yaml, in its order. Throws std::runtime_error when
+/// the file cannot be read or lacks a robot's bag or initial pose.
+std::vector<MissionBag> missionBags(const std::string& mission_dir);

@@ -7,14 +7,13 @@
 // EM the Backend runs on the verified inter-robot closures (poses from odometry, not ground
 // truth); recall is over the truly overlapping queries. Per method also recall@1 and @5 (a true
 // place among the first candidates) and precision-recall curves over the score of each query's
-// best-ranked place and of its verified closure, with their average precision.
+// best-ranked place and of its verified closure, with their average precision, and what the
+// verification saw of each false closure.
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <optional>
 
-#include <yaml-cpp/yaml.h>
 #include <boost/program_options.hpp>
 
 #include "bag_keyframes.h"
@@ -25,7 +24,6 @@
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
 namespace pr = core::place_recognition;
-namespace fs = std::filesystem;
 namespace tools = ccir_mapping::tools;
 
 namespace {
@@ -39,18 +37,8 @@ struct Keyframe {
   pr::DescribedKeyframe described;
 };
 
-core::Pose3 poseFromYaml(const YAML::Node& p) {
-  core::Pose3 pose = core::Pose3::Identity();
-  pose.translation() << p["x"].as<double>(), p["y"].as<double>(), p["z"].as<double>();
-  pose.linear() = Eigen::Quaterniond(p["qw"].as<double>(), p["qx"].as<double>(),
-                                     p["qy"].as<double>(), p["qz"].as<double>())
-                      .normalized()
-                      .toRotationMatrix();
-  return pose;
-}
-
 /// Keyframes of one robot's bag, with true world positions from its ground-truth odometry.
-std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& world_from_odom,
+std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3& world_from_odom,
                                   double spacing_m, const Eigen::Vector2d& odom_noise_per_m,
                                   const pr::PlaceMatcher& matcher) {
   BagKeyframeOptions options;
@@ -59,7 +47,7 @@ std::vector<Keyframe> keyframesOf(const fs::path& bag_file, const core::Pose3& w
   const core::features::FeatureExtractor extractor(matcher.model().features);
   std::vector<Keyframe> keyframes;
   double path_m = 0.0;
-  forEachBagKeyframe(bag_file.string(), options, extractor, [&](BagKeyframe&& b) {
+  forEachBagKeyframe(bag_file, options, extractor, [&](BagKeyframe&& b) {
     Keyframe k;
     k.world_pose = world_from_odom * *b.true_pose;
     k.world_position = k.world_pose.translation();
@@ -122,10 +110,18 @@ PrCurve prCurve(std::vector<Judged> answers, int overlapping) {
   return curve;
 }
 
+/// A verified closure the truth rejects, and what the verification saw.
+struct FalseClosure {
+  std::size_t query = 0, place = 0;
+  double distance_m = 0.0, pose_error_m = 0.0, pose_error_deg = 0.0;
+  core::registration::Verification verification;
+};
+
 struct MethodResult {
   Counts best_ranked, candidates, verified, team_frame, own_candidates, own_verified;
   /// Per query: the best-ranked place (before verification) and the closure verified.
   std::vector<Judged> best_ranked_scores, verified_scores;
+  std::vector<FalseClosure> false_closures;
   /// Truly overlapping queries with a true place among the first 1 and 5 candidates.
   int true_in_top1 = 0, true_in_top5 = 0;
   /// The team transform's distance from the truth, when one was found.
@@ -182,6 +178,12 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
     const bool correct = error.translation().norm() < 0.5 &&
                          Eigen::AngleAxisd(error.linear()).angle() < 3 * M_PI / 180;
     result.verified.correct_pose += correct;
+    if (!near(place, q)) {
+      result.false_closures.push_back(
+          {std::size_t(&q - queries.data()), best->keyframe,
+           (place.world_position - q.world_position).norm(), error.translation().norm(),
+           Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI, best->verification});
+    }
     core::alignment::AlignmentCandidate closure;
     closure.pose_a = place.odom_pose;
     closure.pose_b = q.odom_pose;
@@ -305,19 +307,16 @@ struct Results {
 /// Throws std::runtime_error (the mission or model cannot be read, fewer than two robots).
 Results run(const Options& o) {
   const auto model = pr::PlaceModel::load(o.model_dir);
-  const YAML::Node mission = YAML::LoadFile((fs::path(o.mission_dir) / "mission.yaml").string());
-  if (mission["robots"].size() < 2) throw std::runtime_error("the mission needs two robots");
+  const std::vector<MissionBag> bags = missionBags(o.mission_dir);
+  if (bags.size() < 2) throw std::runtime_error("the mission needs two robots");
   // Described once for every method: with Scan Context's descriptor, which the others ignore.
   pr::MatcherParams describe_params = o.params;
   describe_params.method = pr::MatchMethod::kScanContext;
   const pr::PlaceMatcher describer(describe_params, model);
   std::vector<std::vector<Keyframe>> robots;
-  core::Pose3 world_from_odom[2];
   for (int r = 0; r < 2; ++r) {
-    const YAML::Node robot = mission["robots"][r];
-    world_from_odom[r] = poseFromYaml(robot["initial_pose_in_world"]);
-    robots.push_back(keyframesOf(fs::path(o.mission_dir) / robot["bag"].as<std::string>(),
-                                 world_from_odom[r], o.spacing_m, o.odom_noise_per_m, describer));
+    robots.push_back(keyframesOf(bags[r].path, bags[r].world_from_odom, o.spacing_m,
+                                 o.odom_noise_per_m, describer));
   }
   const auto& map = robots[0];
   const auto& queries = robots[1];
@@ -336,9 +335,9 @@ Results run(const Options& o) {
   results.words_per_keyframe = words / std::max<std::size_t>(1, map.size() + queries.size());
   for (const pr::MatchMethod method :
        {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram, pr::MatchMethod::kScanContext}) {
-    results.methods.emplace_back(method,
-                                 evaluate(method, o.params, model, map, queries, o.true_distance_m,
-                                          world_from_odom[0].inverse() * world_from_odom[1]));
+    results.methods.emplace_back(
+        method, evaluate(method, o.params, model, map, queries, o.true_distance_m,
+                         bags[0].world_from_odom.inverse() * bags[1].world_from_odom));
   }
   return results;
 }
@@ -384,6 +383,18 @@ void report(const Options& o, const Results& results) {
       std::printf("      \"%s\": {\"m\": %.3f, \"deg\": %.2f},\n", name, e->translation().norm(),
                   Eigen::AngleAxisd(e->linear()).angle() * 180 / M_PI);
     };
+    std::printf("      \"false_closures\": [");
+    for (std::size_t i = 0; i < r.false_closures.size(); ++i) {
+      const FalseClosure& f = r.false_closures[i];
+      std::printf(
+          "%s{\"query\": %zu, \"place\": %zu, \"distance_m\": %.1f, \"pose_error_m\": %.2f, "
+          "\"pose_error_deg\": %.1f, \"inliers\": %d, \"fitness_m2\": %.3f, \"overlap\": %.3f, "
+          "\"free_space_violation\": %.4f}",
+          i ? ", " : "", f.query, f.place, f.distance_m, f.pose_error_m, f.pose_error_deg,
+          f.verification.inliers, f.verification.fitness_m2, f.verification.overlap,
+          f.verification.free_space_violation);
+    }
+    std::printf("],\n");
     error("team_frame_error", r.team_frame_error);
     error("team_frame_drift_floor", r.team_frame_drift_floor);
     std::printf(

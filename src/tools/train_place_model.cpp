@@ -1,8 +1,11 @@
 // train_place_model: learns the place-recognition model - spin-image vocabulary, Chow-Liu tree
 // and new-place samples - from rosbags of missions that do not overlap the places to recognise
 // later. Keyframes are taken every --keyframe-distance-m of odometry, preprocessed and described
-// as the pipeline does. Writes DIR/vocabulary.bin, DIR/chow_liu_tree.txt, DIR/samples.txt and
-// DIR/model.yaml. Exit codes: 0 done, 1 cannot read or write, 2 bad arguments.
+// as the pipeline does. The vocabulary and the tree learn from --bags; FAB-MAP's new-place
+// samples come from other keyframes (--sample-bags, or every second keyframe of --bags), since
+// the tree's own training keyframes make every place it learnt look familiar. Writes
+// DIR/vocabulary.bin, DIR/chow_liu_tree.txt, DIR/samples.txt and DIR/model.yaml.
+// Exit codes: 0 done, 1 cannot read or write, 2 bad arguments.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -19,6 +22,7 @@
 #include "ccir_mapping/core/features/feature_extractor.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
 #include "command_line.h"
+#include "feature_options.h"
 
 namespace po = boost::program_options;
 namespace core = ccir_mapping::core;
@@ -28,6 +32,7 @@ namespace {
 
 struct Options {
   std::vector<std::string> bags;
+  std::vector<std::string> sample_bags;
   std::string out;
   int words = 500;
   double keyframe_distance_m = 2.0;
@@ -40,15 +45,18 @@ struct Options {
 
 /// The options, or the exit code to end with (help, a usage error).
 std::optional<int> parse(int argc, char** argv, Options* o) {
-  std::string drop_horizontal = core::preprocess::toString(o->features.drop_horizontal);
   po::options_description options(
-      "Usage: train_place_model --bags A.bag [B.bag ...] --out DIR [--words 500]\n"
+      "Usage: train_place_model --bags A.bag [B.bag ...] [--sample-bags C.bag ...] --out DIR\n"
       "Learns the vocabulary, the Chow-Liu tree and the new-place samples from missions that do\n"
       "not overlap the places to recognise.\n\nOptions",
       100);
   options.add_options()("help,h", "print this help and exit")(
-      "bags", po::value<std::vector<std::string>>(&o->bags)->multitoken(), "training rosbags")(
-      "out", po::value<std::string>(&o->out), "output directory (created)")(
+      "bags", po::value<std::vector<std::string>>(&o->bags)->multitoken(),
+      "rosbags the vocabulary and the Chow-Liu tree learn from")(
+      "sample-bags", po::value<std::vector<std::string>>(&o->sample_bags)->multitoken(),
+      "rosbags of the new-place samples (default: every second keyframe of --bags, which the "
+      "tree then does not learn from)")("out", po::value<std::string>(&o->out),
+                                        "output directory (created)")(
       "words", po::value<int>(&o->words)->default_value(o->words), "vocabulary size")(
       "keyframe-distance-m",
       po::value<double>(&o->keyframe_distance_m)->default_value(o->keyframe_distance_m),
@@ -58,21 +66,16 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "seed", po::value<int>(&o->seed)->default_value(o->seed), "clustering and sampling seed")(
       "points-topic", po::value<std::string>(&o->points_topic)->default_value(o->points_topic),
       "clouds")("odom-topic", po::value<std::string>(&o->odom_topic)->default_value(o->odom_topic),
-                "odometry")(
-      "feature-drop-horizontal",
-      po::value<std::string>(&drop_horizontal)->default_value(drop_horizontal),
-      "degenerate-normal filter of the features: none | ground | ceiling | both")(
-      "iss-non-max-radius-m",
-      po::value<double>(&o->features.iss_non_max_radius_m)
-          ->default_value(o->features.iss_non_max_radius_m),
-      "ISS non-maximum suppression radius [m]");
+                "odometry");
+  const tools::FeatureOptions features(&options, &o->features);
   if (const auto exit_code = tools::parseCommandLine("train_place_model", options, argc, argv)) {
     return exit_code;
   }
-  const auto filter = core::preprocess::parseHorizontalFilter(drop_horizontal);
-  if (filter) o->features.drop_horizontal = *filter;
-  if (!filter || !o->features.validate().empty() || o->bags.empty() || o->out.empty() ||
-      o->words < 2 || !(o->keyframe_distance_m > 0) || o->max_descriptors < o->words) {
+  if (const std::string error = features.apply(); !error.empty()) {
+    return tools::usageError("train_place_model", error);
+  }
+  if (o->bags.empty() || o->out.empty() || o->words < 2 || !(o->keyframe_distance_m > 0) ||
+      o->max_descriptors < o->words) {
     return tools::usageError("train_place_model",
                              "need --bags and --out, --words >= 2, --keyframe-distance-m > 0, "
                              "--max-descriptors >= --words");
@@ -83,6 +86,7 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
 /// The model learnt from the bags' keyframes, and what it was learnt from.
 struct Results {
   std::size_t keyframes = 0;
+  std::size_t samples = 0;
   std::size_t descriptors = 0;
   double words_per_keyframe = 0.0;
   std::shared_ptr<const core::place_recognition::PlaceModel> model;
@@ -96,13 +100,26 @@ Results run(const Options& o) {
   keyframe_options.points_topic = o.points_topic;
   keyframe_options.odom_topic = o.odom_topic;
   keyframe_options.keyframe_distance_m = o.keyframe_distance_m;
-  std::vector<core::features::LocalFeatures> keyframes;
-  for (const std::string& path : o.bags) {
-    const std::size_t count =
-        forEachBagKeyframe(path, keyframe_options, extractor,
-                           [&](BagKeyframe&& k) { keyframes.push_back(std::move(k.features)); });
-    std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(), count);
+  auto read = [&](const std::vector<std::string>& bags) {
+    std::vector<core::features::LocalFeatures> keyframes;
+    for (const std::string& path : bags) {
+      const std::size_t count =
+          forEachBagKeyframe(path, keyframe_options, extractor,
+                             [&](BagKeyframe&& k) { keyframes.push_back(std::move(k.features)); });
+      std::printf("train_place_model: %s: %zu keyframes\n", path.c_str(), count);
+    }
+    return keyframes;
+  };
+  std::vector<core::features::LocalFeatures> keyframes = read(o.bags);
+  std::vector<core::features::LocalFeatures> sample_keyframes = read(o.sample_bags);
+  if (o.sample_bags.empty()) {  // hold every second keyframe out of the tree
+    std::vector<core::features::LocalFeatures> kept;
+    for (std::size_t i = 0; i < keyframes.size(); ++i) {
+      (i % 2 ? sample_keyframes : kept).push_back(std::move(keyframes[i]));
+    }
+    keyframes = std::move(kept);
   }
+  if (sample_keyframes.empty()) throw std::runtime_error("no keyframes for new-place samples");
   std::vector<core::features::SpinImage> descriptors;
   for (const auto& k : keyframes)
     descriptors.insert(descriptors.end(), k.descriptors.begin(), k.descriptors.end());
@@ -117,23 +134,31 @@ Results run(const Options& o) {
     descriptors.resize(static_cast<std::size_t>(o.max_descriptors));
   }
   auto vocabulary = core::place_recognition::Vocabulary::train(descriptors, o.words, o.seed);
-  std::vector<core::place_recognition::WordSet> sets;
+  std::vector<core::place_recognition::WordSet> sets, samples;
   for (const auto& k : keyframes) sets.push_back(vocabulary.quantize(k.descriptors));
+  for (const auto& k : sample_keyframes) samples.push_back(vocabulary.quantize(k.descriptors));
   auto tree = core::place_recognition::ChowLiuTree::learn(sets, vocabulary.size());
   std::ostringstream about;
-  about << "training_keyframes: " << keyframes.size() << "\ndescriptors: " << descriptors.size()
+  about << "training_keyframes: " << keyframes.size()
+        << "\nsample_keyframes: " << sample_keyframes.size()
+        << "\ndescriptors: " << descriptors.size()
         << "\nkeyframe_distance_m: " << o.keyframe_distance_m << "\nbags:\n";
   for (const auto& bag : o.bags) {
     about << "  - " << std::filesystem::path(bag).filename().string() << '\n';
   }
+  about << "sample_bags:" << (o.sample_bags.empty() ? "  # every second keyframe of bags\n" : "\n");
+  for (const auto& bag : o.sample_bags) {
+    about << "  - " << std::filesystem::path(bag).filename().string() << '\n';
+  }
   Results r;
   r.keyframes = keyframes.size();
+  r.samples = samples.size();
   r.descriptors = descriptors.size();
   for (const auto& set : sets) r.words_per_keyframe += set.size();
   r.words_per_keyframe /= double(std::max<std::size_t>(1, sets.size()));
   auto model =
       std::make_shared<core::place_recognition::PlaceModel>(core::place_recognition::PlaceModel{
-          std::move(vocabulary), std::move(tree), sets, o.features});
+          std::move(vocabulary), std::move(tree), std::move(samples), o.features});
   model->save(o.out, about.str());
   r.model = std::move(model);
   return r;
@@ -141,10 +166,10 @@ Results run(const Options& o) {
 
 void report(const Options& o, const Results& r) {
   std::printf(
-      "train_place_model: %zu words (hash %s) from %zu descriptors; %zu keyframes, "
-      "%.0f words each on average -> %s\n",
+      "train_place_model: %zu words (hash %s) from %zu descriptors; tree from %zu keyframes, "
+      "%.0f words each on average; %zu new-place samples -> %s\n",
       r.model->vocabulary.size(), r.model->vocabulary.hash().c_str(), r.descriptors, r.keyframes,
-      r.words_per_keyframe, o.out.c_str());
+      r.words_per_keyframe, r.samples, o.out.c_str());
 }
 
 }  // namespace

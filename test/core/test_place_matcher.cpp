@@ -369,6 +369,10 @@ TEST(PlaceModel, RoundTripsAndNamesTheBrokenFile) {
                   model->features};
   copy.features.drop_horizontal = preprocess::HorizontalFilter::kGround;
   copy.features.iss_non_max_radius_m = 1.25;
+  copy.features.voxel_m = 0.15;
+  copy.features.spin_support_m = 3.5;
+  copy.features.spin_axis = features::SpinAxis::kNormal;
+  copy.features.iss_min_neighbors = 7;
   copy.save(dir.string(), "note: test\n");
   const auto loaded = PlaceModel::load(dir.string());
   EXPECT_EQ(loaded->vocabulary.hash(), model->vocabulary.hash());
@@ -376,6 +380,11 @@ TEST(PlaceModel, RoundTripsAndNamesTheBrokenFile) {
   EXPECT_EQ(loaded->tree.size(), model->tree.size());
   EXPECT_EQ(loaded->features.drop_horizontal, preprocess::HorizontalFilter::kGround);
   EXPECT_DOUBLE_EQ(loaded->features.iss_non_max_radius_m, 1.25);
+  EXPECT_DOUBLE_EQ(loaded->features.voxel_m, 0.15);
+  EXPECT_DOUBLE_EQ(loaded->features.spin_support_m, 3.5);
+  EXPECT_EQ(loaded->features.spin_axis, features::SpinAxis::kNormal);
+  EXPECT_EQ(loaded->features.iss_min_neighbors, 7);
+  EXPECT_DOUBLE_EQ(loaded->features.normal_radius_m, features::FeatureParams{}.normal_radius_m);
 
   auto expectError = [&](const std::string& file) {
     try {

@@ -20,6 +20,7 @@
 
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/mission_files.h"
+#include "command_run.h"
 
 namespace ccir_mapping::simulation_io {
 namespace {
@@ -234,22 +235,10 @@ TEST(SimulatedScanConversion, OrganisedScansKeepRingRows) {
 
 // --- the command line ---------------------------------------------------------------------------
 
-struct CommandRun {
-  int exit_code;
-  std::string output;  // stdout and stderr
-};
+using test::CommandRun;
 
 CommandRun simulateTeam(const std::string& arguments) {
-  const std::string command = std::string(SIMULATE_TEAM) + " " + arguments + " 2>&1";
-  FILE* pipe = ::popen(command.c_str(), "r");
-  CommandRun run{-1, {}};
-  if (!pipe) return run;
-  std::array<char, 4096> buffer;
-  while (size_t n = std::fread(buffer.data(), 1, buffer.size(), pipe))
-    run.output.append(buffer.data(), n);
-  const int status = ::pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
+  return test::runCommand(std::string(SIMULATE_TEAM) + " " + arguments);
 }
 
 TEST(SimulateTeamCommand, HelpDocumentsEveryParameterWithUnitAndDefault) {

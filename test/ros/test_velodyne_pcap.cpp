@@ -16,6 +16,7 @@
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
 #include "ccir_mapping/ros/conversions.h"
+#include "command_run.h"
 
 namespace ccir_mapping {
 namespace {
@@ -100,13 +101,9 @@ TEST(VelodynePcapReader, MissingFilesAndUnknownModelsAreClearErrors) {
 }
 
 int run(const std::string& arguments, std::string* output) {
-  FILE* pipe = ::popen((std::string(PCAP_TO_BAG) + " " + arguments + " 2>&1").c_str(), "r");
-  if (!pipe) return -1;
-  std::array<char, 1024> buffer;
-  while (size_t n = std::fread(buffer.data(), 1, buffer.size(), pipe))
-    output->append(buffer.data(), n);
-  const int status = ::pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const test::CommandRun done = test::runCommand(std::string(PCAP_TO_BAG) + " " + arguments);
+  output->append(done.output);
+  return done.exit_code;
 }
 
 TEST(PcapToBag, WritesTheDriversCloudsAndRefusesBadArguments) {

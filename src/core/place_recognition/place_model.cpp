@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include <yaml-cpp/yaml.h>
 
@@ -52,7 +53,24 @@ features::FeatureParams readFeatureParams(const fs::path& path, const Vocabulary
     const auto filter = preprocess::parseHorizontalFilter(f["drop_horizontal"].as<std::string>(""));
     if (!filter) throw std::runtime_error("features.drop_horizontal is not a filter name");
     params.drop_horizontal = *filter;
+    const auto axis = features::parseSpinAxis(f["spin_axis"].as<std::string>("z_up"));
+    if (!axis) throw std::runtime_error("features.spin_axis is not z_up or normal");
+    params.spin_axis = *axis;
+    // Fields a model does not record keep the defaults they had when it was trained.
+    auto read = [&](const char* key, auto* field) {
+      *field = f[key].as<std::remove_pointer_t<decltype(field)>>(*field);
+    };
+    read("max_range_m", &params.max_range_m);
+    read("horizontal_normal_z", &params.horizontal_normal_z);
+    read("voxel_m", &params.voxel_m);
+    read("normal_radius_m", &params.normal_radius_m);
+    read("iss_salient_radius_m", &params.iss_salient_radius_m);
     params.iss_non_max_radius_m = f["iss_non_max_radius_m"].as<double>();
+    read("iss_gamma_21", &params.iss_gamma_21);
+    read("iss_gamma_32", &params.iss_gamma_32);
+    read("iss_min_neighbors", &params.iss_min_neighbors);
+    read("spin_support_m", &params.spin_support_m);
+    read("spin_min_neighbors", &params.spin_min_neighbors);
   } catch (const std::exception& e) {
     throw std::runtime_error(path.string() + ": " + e.what());
   }
@@ -91,8 +109,19 @@ void PlaceModel::save(const std::string& dir, const std::string& about) const {
   model << "# Place-recognition model written by train_place_model\n"
         << "vocabulary_hash: " << vocabulary.hash() << "\nwords: " << vocabulary.size()
         << "\nfeatures:  # the descriptors of every query must be computed the same way\n"
-        << "  drop_horizontal: " << preprocess::toString(features.drop_horizontal)
-        << "\n  iss_non_max_radius_m: " << features.iss_non_max_radius_m << '\n'
+        << "  max_range_m: " << features.max_range_m
+        << "\n  drop_horizontal: " << preprocess::toString(features.drop_horizontal)
+        << "\n  horizontal_normal_z: " << features.horizontal_normal_z
+        << "\n  voxel_m: " << features.voxel_m
+        << "\n  normal_radius_m: " << features.normal_radius_m
+        << "\n  iss_salient_radius_m: " << features.iss_salient_radius_m
+        << "\n  iss_non_max_radius_m: " << features.iss_non_max_radius_m
+        << "\n  iss_gamma_21: " << features.iss_gamma_21
+        << "\n  iss_gamma_32: " << features.iss_gamma_32
+        << "\n  iss_min_neighbors: " << features.iss_min_neighbors
+        << "\n  spin_support_m: " << features.spin_support_m
+        << "\n  spin_axis: " << features::toString(features.spin_axis)
+        << "\n  spin_min_neighbors: " << features.spin_min_neighbors << '\n'
         << about;
   if (!out || !model) throw std::runtime_error("cannot write into " + dir);
 }

@@ -31,8 +31,10 @@ struct FeatureParams {
   /// Normals are estimated again at this scale (viewpoint at the sensor).
   double normal_radius_m = 0.8;
   double iss_salient_radius_m = 1.0;
-  /// Non-maximum suppression radius: sets the keypoint count (1.5 m: ~250 on a VLP-16 scan).
-  double iss_non_max_radius_m = 1.5;
+  /// Non-maximum suppression radius: sets the keypoint count. 0.5 m: ~175 per simulated mine
+  /// keyframe and 90-190 on the real VLP-16 scans with the "both" filter (1.5 m: 27 and 40-50,
+  /// too few for FAB-MAP and RANSAC; docs/results.md, feature study).
+  double iss_non_max_radius_m = 0.5;
   double iss_gamma_21 = 0.975;
   double iss_gamma_32 = 0.975;
   int iss_min_neighbors = 5;
