@@ -149,6 +149,8 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("min_place_probability", p.min_place_probability);
   reader.read("new_place_prior", p.fabmap.new_place_prior);
   reader.read("motion_prior_weight", p.fabmap.motion_prior_weight);
+  reader.read("scan_context_max_range_m", p.scan_context.max_range_m);
+  reader.read("scan_context_ring_key_candidates", p.scan_context.ring_key_candidates);
   reader.read("complete_places", p.complete_places);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);

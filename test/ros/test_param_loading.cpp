@@ -51,6 +51,23 @@ TEST(ParamLoading, OutOfRangeValueNamesParameterAndRange) {
   EXPECT_EQ(queue_reader.errors()[0], "scan_queue_size = 0 is out of range: allowed [1, 1000]");
 }
 
+TEST(ParamLoading, MatcherReadsScanContextSettingsIntoItsCoreStruct) {
+  ParamReader reader{
+      params("{method: scan_context, scan_context_max_range_m: 80, "
+             "scan_context_ring_key_candidates: 25}")};
+  MatcherSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_EQ(settings.core.method, core::place_recognition::MatchMethod::kScanContext);
+  EXPECT_DOUBLE_EQ(settings.core.scan_context.max_range_m, 80.0);
+  EXPECT_EQ(settings.core.scan_context.ring_key_candidates, 25);
+
+  ParamReader bad{params("{scan_context_ring_key_candidates: 0}")};
+  MatcherSettings fresh;
+  load(bad, fresh);
+  EXPECT_TRUE(hasError(bad, "scan_context_ring_key_candidates")) << bad.errors().size();
+}
+
 TEST(ParamLoading, WrongTypesAreErrors) {
   ParamReader reader{params("{voxel_leaf_m: fine, fixed_rate_every_n: 2.5, mode: 3}")};
   PreprocessorSettings pre;
