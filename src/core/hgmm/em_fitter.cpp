@@ -1,0 +1,133 @@
+#include "ccir_mapping/core/hgmm/em_fitter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+
+#include "ccir_mapping/core/common/param_check.h"
+
+namespace ccir_mapping::core::hgmm {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;
+
+/// k-means++ (Arthur & Vassilvitskii 2007): each next centre drawn with probability
+/// proportional to the squared distance to the nearest centre so far.
+std::vector<Eigen::Vector3d> seedCentres(const Points& points, int k, std::mt19937_64& rng) {
+  const Eigen::Index n = points.cols();
+  std::vector<Eigen::Vector3d> centres{
+      points.col(std::uniform_int_distribution<Eigen::Index>(0, n - 1)(rng))};
+  Eigen::ArrayXd nearest = (points.colwise() - centres[0]).colwise().squaredNorm().transpose();
+  while (static_cast<int>(centres.size()) < k && nearest.sum() > 0.0) {
+    std::discrete_distribution<Eigen::Index> draw(nearest.data(), nearest.data() + n);
+    centres.push_back(points.col(draw(rng)));
+    nearest = nearest.min(
+        (points.colwise() - centres.back()).colwise().squaredNorm().transpose().array());
+  }
+  return centres;  // fewer than k when the points have fewer distinct positions
+}
+
+/// Weights, means and covariances from responsibilities (K x n, columns summing to 1);
+/// components explaining less than one point are dropped.
+std::vector<Gaussian> maximise(const Points& points, const Eigen::MatrixXd& responsibility,
+                               double floor_m2) {
+  std::vector<Gaussian> components;
+  const double n = static_cast<double>(points.cols());
+  for (Eigen::Index k = 0; k < responsibility.rows(); ++k) {
+    const Eigen::RowVectorXd r = responsibility.row(k);
+    const double mass = r.sum();
+    if (!(mass >= 1.0)) continue;
+    Gaussian g;
+    g.weight = mass / n;
+    g.mean = points * r.transpose() / mass;
+    const Points centred = points.colwise() - g.mean;
+    g.covariance = (centred * r.asDiagonal() * centred.transpose()) / mass;
+    g.covariance = 0.5 * (g.covariance + g.covariance.transpose());
+    g.covariance.diagonal().array() += floor_m2;
+    components.push_back(g);
+  }
+  double total = 0.0;
+  for (const Gaussian& g : components) total += g.weight;
+  for (Gaussian& g : components) g.weight /= total;
+  return components;
+}
+
+/// log(w_k N(x_i | mu_k, Sigma_k)) for every component k and point i (K x n).
+Eigen::MatrixXd logWeightedDensities(const Points& points, const std::vector<Gaussian>& mixture) {
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(mixture.size()), points.cols());
+  for (std::size_t k = 0; k < mixture.size(); ++k) {
+    const Eigen::LLT<Eigen::Matrix3d> llt(mixture[k].covariance);
+    const Eigen::Matrix3d l = llt.matrixL();
+    const Points z = l.triangularView<Eigen::Lower>().solve(points.colwise() - mixture[k].mean);
+    const double constant =
+        std::log(mixture[k].weight) - 1.5 * kLog2Pi - std::log(l.diagonal().prod());
+    out.row(static_cast<Eigen::Index>(k)) =
+        (constant - 0.5 * z.colwise().squaredNorm().array()).matrix();
+  }
+  return out;
+}
+
+}  // namespace
+
+EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
+  validated(params);
+  if (all_points.cols() == 0 || !all_points.allFinite()) {
+    throw std::invalid_argument("fitGaussianMixture needs finite points");
+  }
+  std::mt19937_64 rng(params.seed);
+  Points subset;
+  if (all_points.cols() > params.max_points) {
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(all_points.cols()));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    subset.resize(3, params.max_points);
+    for (int i = 0; i < params.max_points; ++i)
+      subset.col(i) = all_points.col(order[std::size_t(i)]);
+  }
+  const Points& points = all_points.cols() > params.max_points ? subset : all_points;
+  const auto centres =
+      seedCentres(points, std::min<int>(params.components, int(points.cols())), rng);
+  // Hard assignment to the nearest centre starts EM.
+  Eigen::MatrixXd responsibility =
+      Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(centres.size()), points.cols());
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    Eigen::Index best = 0;
+    double best_d2 = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < centres.size(); ++k) {
+      const double d2 = (points.col(i) - centres[k]).squaredNorm();
+      if (d2 < best_d2) best_d2 = d2, best = static_cast<Eigen::Index>(k);
+    }
+    responsibility(best, i) = 1.0;
+  }
+  std::vector<Gaussian> mixture = maximise(points, responsibility, params.covariance_floor_m2);
+  EmFit fit;
+  Eigen::MatrixXd log_density;
+  for (int iteration = 0; iteration < params.max_iterations; ++iteration) {
+    log_density = logWeightedDensities(points, mixture);
+    const Eigen::RowVectorXd peak = log_density.colwise().maxCoeff();
+    const Eigen::RowVectorXd log_sum =
+        peak.array() + (log_density.rowwise() - peak).array().exp().colwise().sum().log();
+    fit.log_likelihoods.push_back(log_sum.mean());
+    const std::size_t done = fit.log_likelihoods.size();
+    if (done > 1 &&
+        fit.log_likelihoods[done - 1] - fit.log_likelihoods[done - 2] < params.tolerance) {
+      break;
+    }
+    responsibility = (log_density.rowwise() - log_sum).array().exp();
+    mixture = maximise(points, responsibility, params.covariance_floor_m2);
+  }
+  log_density = logWeightedDensities(all_points, mixture);
+  fit.labels.resize(static_cast<std::size_t>(all_points.cols()));
+  for (Eigen::Index i = 0; i < all_points.cols(); ++i) {
+    Eigen::Index best = 0;
+    log_density.col(i).maxCoeff(&best);
+    fit.labels[static_cast<std::size_t>(i)] = static_cast<int>(best);
+  }
+  fit.mixture = GaussianMixture(std::move(mixture));
+  return fit;
+}
+
+}  // namespace ccir_mapping::core::hgmm

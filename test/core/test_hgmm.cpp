@@ -1,0 +1,261 @@
+// Gaussian mixtures, their EM fit and hierarchy (algorithms.md section 6.5): EM recovers a
+// known mixture, the sampler's statistics, every level a valid mixture, the L2 distance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "ccir_mapping/core/hgmm/em_fitter.h"
+#include "ccir_mapping/core/hgmm/hgmm.h"
+#include "ccir_mapping/core/hgmm/mixture_codec.h"
+
+namespace ccir_mapping::core::hgmm {
+namespace {
+
+Gaussian gaussian(double weight, const Eigen::Vector3d& mean, const Eigen::Vector3d& sigmas,
+                  double yaw = 0.0) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return {weight, mean, r * sigmas.array().square().matrix().asDiagonal() * r.transpose()};
+}
+
+GaussianMixture knownMixture() {
+  return GaussianMixture({gaussian(0.5, {0, 0, 0}, {1.0, 0.3, 0.2}, 0.5),
+                          gaussian(0.3, {6, 1, 0}, {0.5, 0.5, 0.5}),
+                          gaussian(0.2, {2, 7, 1}, {0.8, 0.2, 0.1}, -1.0)});
+}
+
+/// The known component nearest (Mahalanobis) to `mean`.
+std::size_t nearest(const GaussianMixture& m, const Eigen::Vector3d& x) {
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < m.size(); ++k) {
+    if (m.logComponentDensity(k, x) - std::log(m.components()[k].weight) >
+        m.logComponentDensity(best, x) - std::log(m.components()[best].weight)) {
+      best = k;
+    }
+  }
+  return best;
+}
+
+TEST(EmFit, RecoversAKnownMixtureAndNeverLosesLikelihood) {
+  const GaussianMixture truth = knownMixture();
+  std::mt19937_64 rng(7);
+  const Points points = truth.sample(30000, rng, 0.0);
+  EmParams params;
+  params.components = 3;
+  params.covariance_floor_m2 = 1e-6;
+  params.tolerance = 1e-7;
+  params.max_points = 30000;  // all of them
+  const EmFit fit = fitGaussianMixture(points, params);
+  ASSERT_EQ(fit.mixture.size(), 3u);
+  EXPECT_NEAR(fit.mixture.totalWeight(), 1.0, 1e-9);
+  for (std::size_t i = 1; i < fit.log_likelihoods.size(); ++i) {
+    EXPECT_GE(fit.log_likelihoods[i], fit.log_likelihoods[i - 1] - 1e-9) << "iteration " << i;
+  }
+  for (const Gaussian& estimate : fit.mixture.components()) {
+    const Gaussian& real = truth.components()[nearest(truth, estimate.mean)];
+    EXPECT_NEAR(estimate.weight, real.weight, 0.02);
+    const double n = real.weight * 30000;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(estimate.mean(a), real.mean(a), 4 * std::sqrt(real.covariance(a, a) / n));
+    }
+    const double scale = real.covariance.diagonal().maxCoeff();
+    EXPECT_LT((estimate.covariance - real.covariance).cwiseAbs().maxCoeff(), 0.1 * scale)
+        << estimate.covariance << "\n vs \n"
+        << real.covariance;
+  }
+  // The fit explains the points about as well as the truth does.
+  EXPECT_GT(fit.mixture.meanLogLikelihood(points), truth.meanLogLikelihood(points) - 0.01);
+}
+
+TEST(EmFit, FewPointsAndDuplicatesGiveFewerComponentsNotNaNs) {
+  Points points(3, 5);
+  points.setZero();
+  points(0, 4) = 1.0;
+  EmParams params;  // 8 components asked, 2 distinct positions
+  const EmFit fit = fitGaussianMixture(points, params);
+  EXPECT_LE(fit.mixture.size(), 2u);
+  EXPECT_TRUE(std::isfinite(fit.mixture.meanLogLikelihood(points)));
+  EXPECT_THROW(fitGaussianMixture(Points(3, 0), params), std::invalid_argument);
+  params.components = 0;
+  EXPECT_THROW(fitGaussianMixture(points, params), std::invalid_argument);
+}
+
+TEST(GaussianMixture, SamplesHaveTheComponentsShareMeanAndCovariance) {
+  const GaussianMixture truth = knownMixture();
+  std::mt19937_64 rng(3);
+  const std::size_t n = 60000;
+  const Points samples = truth.sample(n, rng, 0.0);
+  std::vector<std::vector<Eigen::Index>> of(truth.size());
+  for (Eigen::Index i = 0; i < samples.cols(); ++i) of[nearest(truth, samples.col(i))].push_back(i);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const Gaussian& g = truth.components()[k];
+    // The components overlap little: the share is within a few binomial deviations.
+    EXPECT_NEAR(double(of[k].size()) / n, g.weight,
+                4 * std::sqrt(g.weight * (1 - g.weight) / n) + 0.005);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Eigen::Index i : of[k]) mean += samples.col(i);
+    mean /= double(of[k].size());
+    EXPECT_LT((mean - g.mean).norm(), 0.05);
+  }
+  // One component: covariance to a few percent.
+  const GaussianMixture one({gaussian(1.0, {1, 2, 3}, {2.0, 1.0, 0.5}, 0.3)});
+  const Points draws = one.sample(n, rng, 0.0);
+  const Eigen::Vector3d mean = draws.rowwise().mean();
+  const Points centred = draws.colwise() - mean;
+  const Eigen::Matrix3d covariance = centred * centred.transpose() / double(n);
+  EXPECT_LT((covariance - one.components()[0].covariance).cwiseAbs().maxCoeff(), 0.05 * 4.0);
+  // The same seed, the same points; the gate keeps every draw within it.
+  std::mt19937_64 a(11), b(11);
+  EXPECT_TRUE(truth.sample(100, a).isApprox(truth.sample(100, b)));
+  const Points gated = one.sample(5000, rng, 7.81);
+  const Eigen::Matrix3d l = Eigen::LLT<Eigen::Matrix3d>(one.components()[0].covariance).matrixL();
+  for (Eigen::Index i = 0; i < gated.cols(); ++i) {
+    EXPECT_LE(l.triangularView<Eigen::Lower>()
+                  .solve(gated.col(i) - one.components()[0].mean)
+                  .squaredNorm(),
+              7.81 + 1e-9);
+  }
+}
+
+TEST(GaussianMixture, RefusesInvalidComponents) {
+  Gaussian bad = gaussian(1.0, {0, 0, 0}, {1, 1, 1});
+  bad.covariance(2, 2) = -1.0;
+  EXPECT_THROW(GaussianMixture({bad}), std::invalid_argument);
+  EXPECT_THROW(GaussianMixture({gaussian(-0.1, {0, 0, 0}, {1, 1, 1})}), std::invalid_argument);
+  EXPECT_THROW(GaussianMixture({gaussian(0.0, {0, 0, 0}, {1, 1, 1})}), std::invalid_argument);
+}
+
+TEST(L2Distance, ZeroForTheSameMixtureSymmetricAndAsMonteCarloSays) {
+  const GaussianMixture f = knownMixture();
+  const GaussianMixture g(
+      {gaussian(0.6, {0.5, 0, 0}, {1.0, 0.4, 0.3}), gaussian(0.4, {5, 2, 0}, {0.7, 0.5, 0.5})});
+  EXPECT_NEAR(l2Distance(f, f), 0.0, 1e-12);
+  EXPECT_NEAR(l2Distance(f, g), l2Distance(g, f), 1e-12);
+  EXPECT_GT(l2Distance(f, g), 0.0);
+  // integral (f - g)^2 = E_f[f - g] - E_g[f - g].
+  std::mt19937_64 rng(5);
+  const std::size_t n = 200000;
+  const Points from_f = f.sample(n, rng, 0.0), from_g = g.sample(n, rng, 0.0);
+  double estimate = 0.0;
+  for (Eigen::Index i = 0; i < Eigen::Index(n); ++i) {
+    estimate += std::exp(f.logDensity(from_f.col(i))) - std::exp(g.logDensity(from_f.col(i)));
+    estimate -= std::exp(f.logDensity(from_g.col(i))) - std::exp(g.logDensity(from_g.col(i)));
+  }
+  estimate /= double(n);
+  EXPECT_NEAR(l2Distance(f, g), estimate, 0.05 * l2Distance(f, g));
+}
+
+TEST(MixtureCodec, RoundTripIsCloseAndCorruptBytesAreRefused) {
+  const GaussianMixture mixture = knownMixture();
+  const std::vector<std::uint8_t> bytes = encodeMixture(mixture);
+  EXPECT_EQ(bytes.size(), kMixtureHeaderBytes + 3 * kMixtureComponentBytes);
+  const GaussianMixture decoded = decodeMixture(bytes);
+  ASSERT_EQ(decoded.size(), mixture.size());
+  for (std::size_t k = 0; k < mixture.size(); ++k) {
+    const Gaussian& a = mixture.components()[k];
+    const Gaussian& b = decoded.components()[k];
+    EXPECT_NEAR(a.weight, b.weight, 1e-4);
+    EXPECT_LT((a.mean - b.mean).cwiseAbs().maxCoeff(), 7.0 / 32767);  // half a step and float
+    EXPECT_LT((a.covariance - b.covariance).norm(), 1e-3 * a.covariance.norm());
+  }
+  // The rounding changes the density far less than another mixture does.
+  const GaussianMixture other({gaussian(1.0, {0.5, 0, 0}, {1.0, 0.4, 0.3})});
+  EXPECT_LT(l2Distance(mixture, decoded), 1e-4 * l2Distance(mixture, other));
+
+  std::vector<std::uint8_t> truncated(bytes.begin(), bytes.end() - 1);
+  EXPECT_THROW(decodeMixture(truncated), std::invalid_argument);
+  EXPECT_THROW(decodeMixture({}), std::invalid_argument);
+  std::vector<std::uint8_t> version = bytes;
+  version[0] = 9;
+  EXPECT_THROW(decodeMixture(version), std::invalid_argument);
+  std::vector<std::uint8_t> flat = bytes;
+  flat[kMixtureHeaderBytes + 8] = flat[kMixtureHeaderBytes + 9] = 0;  // first factor diagonal 0
+  EXPECT_THROW(decodeMixture(flat), std::invalid_argument);
+}
+
+/// Points on the walls and floor of a 12 x 8 m room with a 2 m pillar: planes, edges, corners.
+Points room(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i < 6000; ++i) {
+    const double s = u(rng), t = u(rng);
+    switch (i % 6) {
+      case 0:
+        out.emplace_back(12 * s, 0, 3 * t);
+        break;
+      case 1:
+        out.emplace_back(12 * s, 8, 3 * t);
+        break;
+      case 2:
+        out.emplace_back(0, 8 * s, 3 * t);
+        break;
+      case 3:
+        out.emplace_back(12, 8 * s, 3 * t);
+        break;
+      case 4:
+        out.emplace_back(12 * s, 8 * t, 0);
+        break;
+      default:
+        out.emplace_back(5 + 2 * s, 3 + (t < 0.5 ? 0 : 2), 3 * u(rng));
+        break;
+    }
+    out.back() += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  Points points(3, Eigen::Index(out.size()));
+  for (std::size_t i = 0; i < out.size(); ++i) points.col(Eigen::Index(i)) = out[i];
+  return points;
+}
+
+TEST(Hgmm, EveryLevelIsAMixtureChildrenInsideParentsFinerLevelsFitBetter) {
+  std::mt19937_64 rng(1);
+  const Points points = room(rng);
+  HgmmParams params;
+  params.max_depth = 2;
+  const Hgmm hgmm = Hgmm::build(points, params);
+  ASSERT_GE(hgmm.depth(), 1) << "BIC kept no split of a room";
+  std::size_t labelled = 0;  // EM ran on a subset of the 6000; every point still has a node
+  for (const HgmmNode& node : hgmm.nodes()) labelled += node.depth == 0 ? node.points : 0;
+  EXPECT_EQ(labelled, std::size_t(points.cols()));
+  double previous_likelihood = -1e300;
+  std::size_t previous_bytes = 0;
+  for (int level = 0; level <= hgmm.depth(); ++level) {
+    const GaussianMixture mixture = hgmm.level(level);
+    EXPECT_NEAR(mixture.totalWeight(), 1.0, 1e-9) << "level " << level;
+    EXPECT_GT(hgmm.bytes(level), previous_bytes);
+    EXPECT_EQ(hgmm.bytes(level), encodeMixture(mixture).size());
+    const double likelihood = mixture.meanLogLikelihood(points);
+    EXPECT_GT(likelihood, previous_likelihood) << "level " << level;
+    previous_likelihood = likelihood;
+    previous_bytes = hgmm.bytes(level);
+  }
+  for (const HgmmNode& node : hgmm.nodes()) {
+    if (node.parent < 0) continue;
+    const Gaussian& parent = hgmm.nodes()[std::size_t(node.parent)].gaussian;
+    const Eigen::Matrix3d l = Eigen::LLT<Eigen::Matrix3d>(parent.covariance).matrixL();
+    const double d2 =
+        l.triangularView<Eigen::Lower>().solve(node.gaussian.mean - parent.mean).squaredNorm();
+    EXPECT_LE(d2, 9.0) << "a child's mean outside its parent's 3-sigma ellipsoid";
+  }
+  EXPECT_EQ(hgmm.levelWithin(hgmm.bytes(1)), 1);
+  EXPECT_EQ(hgmm.levelWithin(hgmm.bytes(1) - 1), 0);
+  EXPECT_FALSE(hgmm.levelWithin(hgmm.bytes(0) - 1).has_value());
+}
+
+TEST(Hgmm, ANodeThatIsOneGaussianIsNotSplit) {
+  // Eight Gaussians 10 m apart: level 0 finds them; splitting one gains too little likelihood
+  // for the 70 parameters its children cost (BIC), unlike the room's planes and edges.
+  std::vector<Gaussian> blobs;
+  for (int k = 0; k < 8; ++k) {
+    blobs.push_back(gaussian(1.0 / 8, {10.0 * (k % 4), 10.0 * (k / 4), 0}, {1.0, 0.5, 0.3}, k));
+  }
+  std::mt19937_64 rng(2);
+  const Points points = GaussianMixture(blobs).sample(8000, rng, 0.0);
+  const Hgmm hgmm = Hgmm::build(points, HgmmParams{});
+  EXPECT_EQ(hgmm.depth(), 0);
+  EXPECT_EQ(hgmm.nodes().size(), 8u);
+}
+
+}  // namespace
+}  // namespace ccir_mapping::core::hgmm
