@@ -5,8 +5,11 @@
 // cloud: Chamfer distance, and precision / recall of the occupied voxels at --voxel-m (the
 // cells an OctoMap of the points at that resolution marks occupied). Prints JSON. With
 // --samples-out DIR also writes each scan's points and each level's samples as "x y z" lines
-// (DIR/<scan>_points.xyz, DIR/<scan>_level<L>.xyz) for scripts/lib/plot_hgmm.py.
+// (DIR/<scan>_points.xyz, DIR/<scan>_level<L>.xyz) for scripts/lib/plot_hgmm.py. Each scan after
+// the first is also registered onto the first from the identity, by its deepest level's
+// mixture (GMM-to-GMM GICP) and by points sampled from it (GICP onto the first's points).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +23,7 @@
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/hgmm/hgmm.h"
+#include "ccir_mapping/core/hgmm/mixture_registration.h"
 #include "ccir_mapping/core/preprocess/scan_preprocessor.h"
 #include "command_line.h"
 
@@ -70,12 +74,32 @@ struct Level {
   double log_likelihood = 0.0, chamfer_m = 0.0, precision = 0.0, recall = 0.0;
 };
 
+struct Aligned {
+  bool accepted = false;
+  double ms = 0.0, yaw_deg = 0.0, shift_m = 0.0, fitness_m2 = 0.0;
+};
+
 struct Scan {
   std::string file;
   std::size_t points = 0;
   double fit_ms = 0.0;
   std::vector<Level> levels;
+  std::optional<Aligned> mixtures, sampled;  // onto the first scan
 };
+
+template <class F>
+Aligned timed(F&& run) {
+  const auto start = std::chrono::steady_clock::now();
+  const hgmm::Registration r = run();
+  Aligned a;
+  a.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  a.accepted = r.accepted;
+  a.fitness_m2 = r.fitness_m2;
+  a.yaw_deg = std::atan2(r.transform(1, 0), r.transform(0, 0)) * 180 / M_PI;
+  a.shift_m = r.transform.translation().norm();
+  return a;
+}
 
 using Voxel = std::tuple<long, long, long>;
 
@@ -118,6 +142,7 @@ double meanNearest(const hgmm::Points& from, const hgmm::Points& to) {
 std::vector<Scan> run(const Options& o) {
   const core::preprocess::ScanPreprocessor preprocessor{core::preprocess::PreprocessorParams{}};
   std::vector<Scan> scans;
+  std::optional<std::pair<hgmm::Hgmm, hgmm::Points>> first;
   for (const std::string& file : o.pcds) {
     pcl::PointCloud<pcl::PointXYZI> raw;
     if (pcl::io::loadPCDFile(file, raw) != 0) throw std::runtime_error("cannot read " + file);
@@ -159,6 +184,21 @@ std::vector<Scan> run(const Options& o) {
       level.recall = double(common) / double(occupied.size());
       scan.levels.push_back(level);
     }
+    if (first) {
+      const hgmm::RegistrationParams registration;
+      const auto& [target, target_points] = *first;
+      const hgmm::GaussianMixture source = model.level(model.depth());
+      scan.mixtures = timed([&] {
+        return hgmm::registerMixtures(source, target.level(target.depth()), core::Pose3::Identity(),
+                                      registration);
+      });
+      scan.sampled = timed([&] {
+        return hgmm::registerSampled(source, target_points, core::Pose3::Identity(), registration,
+                                     rng);
+      });
+    } else {
+      first.emplace(model, points);
+    }
     scans.push_back(std::move(scan));
   }
   return scans;
@@ -182,7 +222,17 @@ void report(const Options& o, const std::vector<Scan>& scans) {
           l, v.components, v.bytes, 12.0 * double(scan.points) / double(v.bytes), v.log_likelihood,
           v.chamfer_m, v.precision, v.recall, l + 1 < scan.levels.size() ? "," : "");
     }
-    std::printf("    ]}%s\n", s + 1 < scans.size() ? "," : "");
+    std::printf("    ]");
+    for (const auto& [name, a] : {std::pair{"onto_first_by_mixtures", &scan.mixtures},
+                                  std::pair{"onto_first_by_samples", &scan.sampled}}) {
+      if (!*a) continue;
+      std::printf(
+          ",\n     \"%s\": {\"accepted\": %s, \"ms\": %.1f, \"yaw_deg\": %.2f, "
+          "\"shift_m\": %.3f, \"fitness_m2\": %.3f}",
+          name, (*a)->accepted ? "true" : "false", (*a)->ms, (*a)->yaw_deg, (*a)->shift_m,
+          (*a)->fitness_m2);
+    }
+    std::printf("}%s\n", s + 1 < scans.size() ? "," : "");
   }
   std::printf("  ]\n}\n");
 }

@@ -9,6 +9,7 @@
 #include "ccir_mapping/core/hgmm/em_fitter.h"
 #include "ccir_mapping/core/hgmm/hgmm.h"
 #include "ccir_mapping/core/hgmm/mixture_codec.h"
+#include "ccir_mapping/core/hgmm/mixture_registration.h"
 
 namespace ccir_mapping::core::hgmm {
 namespace {
@@ -255,6 +256,82 @@ TEST(Hgmm, ANodeThatIsOneGaussianIsNotSplit) {
   const Hgmm hgmm = Hgmm::build(points, HgmmParams{});
   EXPECT_EQ(hgmm.depth(), 0);
   EXPECT_EQ(hgmm.nodes().size(), 8u);
+}
+
+/// The room with a second pillar, so that no turn maps it onto itself.
+Points asymmetricRoom(std::mt19937_64& rng) {
+  Points points = room(rng);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Points pillar(3, 1500);
+  for (Eigen::Index i = 0; i < pillar.cols(); ++i) {
+    const double s = u(rng), t = 3 * u(rng);
+    pillar.col(i) = i % 2 ? Eigen::Vector3d(9 + s, 6, t) : Eigen::Vector3d(9, 5 + s, t);
+  }
+  Points all(3, points.cols() + pillar.cols());
+  all << points, pillar;
+  return all;
+}
+
+double degrees(const Pose3& error) {
+  return Eigen::AngleAxisd(error.linear()).angle() * 180 / M_PI;
+}
+
+TEST(MixtureRegistration, BothWaysRecoverAKnownTransformAndRefuseA90DegreeStart) {
+  std::mt19937_64 rng(4);
+  const Points target_points = asymmetricRoom(rng);
+  // The source is the same room seen from a pose turned by 10 degrees and 0.5 m away.
+  const Pose3 truth = Eigen::Translation3d(0.4, -0.3, 0.05) *
+                      Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitZ());
+  const Points source_points = truth.inverse() * target_points;
+  HgmmParams params;
+  const Hgmm target = Hgmm::build(target_points, params);
+  const Hgmm source = Hgmm::build(source_points, params);
+  RegistrationParams registration;
+  const Registration mixtures = registerMixtures(
+      source.level(source.depth()), target.level(target.depth()), Pose3::Identity(), registration);
+  ASSERT_TRUE(mixtures.accepted) << mixtures.reason;
+  const Pose3 mixture_error = truth.inverse() * mixtures.transform;
+  EXPECT_LT(mixture_error.translation().norm(), 0.01);
+  EXPECT_LT(degrees(mixture_error), 0.2);
+  const Registration sampled = registerSampled(source.level(source.depth()), target_points,
+                                               Pose3::Identity(), registration, rng);
+  ASSERT_TRUE(sampled.accepted) << sampled.reason;
+  const Pose3 sampled_error = truth.inverse() * sampled.transform;
+  EXPECT_LT(sampled_error.translation().norm(), 0.02);
+  EXPECT_LT(degrees(sampled_error), 0.2);
+  std::printf("mixtures: %.3f m %.2f deg; sampled: %.3f m %.2f deg\n",
+              mixture_error.translation().norm(), degrees(mixture_error),
+              sampled_error.translation().norm(), degrees(sampled_error));
+
+  // Started 90 degrees off, neither claims a fit.
+  const Pose3 wrong(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  const Registration lost = registerMixtures(source.level(source.depth()),
+                                             target.level(target.depth()), wrong, registration);
+  const Registration lost_sampled =
+      registerSampled(source.level(source.depth()), target_points, wrong, registration, rng);
+  for (const Registration* r : {&lost, &lost_sampled}) {
+    const Pose3 error = truth.inverse() * r->transform;
+    std::printf("from 90 degrees: %s, fitness %.3f, error %.1f deg\n",
+                r->accepted ? "accepted" : r->reason.c_str(), r->fitness_m2, degrees(error));
+    if (r->accepted) {  // accepted only if it found its way back
+      EXPECT_LT(degrees(error), 1.0) << "accepted a wrong alignment, fitness " << r->fitness_m2;
+    } else {
+      EXPECT_FALSE(r->reason.empty());
+    }
+  }
+}
+
+TEST(MixtureRegistration, TransformedMovesMeansAndTurnsCovariances) {
+  const GaussianMixture m({gaussian(1.0, {1, 0, 0}, {2.0, 0.5, 0.1})});
+  const Pose3 pose =
+      Eigen::Translation3d(0, 0, 1) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  const Gaussian g = transformed(m, pose).components()[0];
+  EXPECT_TRUE(g.mean.isApprox(Eigen::Vector3d(0, 1, 1), 1e-12));
+  EXPECT_NEAR(g.covariance(1, 1), 4.0, 1e-12);  // the long axis now along y
+  EXPECT_NEAR(g.covariance(0, 0), 0.25, 1e-12);
+  RegistrationParams bad;
+  bad.max_correspondence_m = 0;
+  EXPECT_THROW(registerMixtures(m, m, Pose3::Identity(), bad), std::invalid_argument);
 }
 
 }  // namespace
