@@ -151,7 +151,9 @@ std::vector<Scan> run(const Options& o) {
     for (std::size_t i = 0; i < cloud->size(); ++i) {
       points.col(Eigen::Index(i)) = (*cloud)[i].getVector3fMap().cast<double>();
     }
-    Scan scan{file, cloud->size(), 0.0, {}};
+    Scan scan;
+    scan.file = file;
+    scan.points = cloud->size();
     const auto start = std::chrono::steady_clock::now();
     const hgmm::Hgmm model = hgmm::Hgmm::build(points, o.params);
     scan.fit_ms =

@@ -10,6 +10,7 @@
 #include "ccir_mapping/core/hgmm/hgmm.h"
 #include "ccir_mapping/core/hgmm/mixture_codec.h"
 #include "ccir_mapping/core/hgmm/mixture_registration.h"
+#include "ccir_mapping/core/hgmm/novelty_keyframes.h"
 
 namespace ccir_mapping::core::hgmm {
 namespace {
@@ -332,6 +333,29 @@ TEST(MixtureRegistration, TransformedMovesMeansAndTurnsCovariances) {
   RegistrationParams bad;
   bad.max_correspondence_m = 0;
   EXPECT_THROW(registerMixtures(m, m, Pose3::Identity(), bad), std::invalid_argument);
+}
+
+TEST(NoveltyKeyframes, ARevisitIsExplainedAndNewGroundIsStored) {
+  std::mt19937_64 rng(6);
+  const Points here = asymmetricRoom(rng);
+  NoveltyKeyframes store{NoveltyParams{}};
+  EXPECT_EQ(store.explainedShare(here, Pose3::Identity()), 0.0);
+  ASSERT_TRUE(store.offer(here, Pose3::Identity()));
+  EXPECT_GT(store.bytes(), 0u);
+  // The same room seen again from 0.3 m further (another draw of its surfaces): explained.
+  const Pose3 moved(Eigen::Translation3d(0.3, 0, 0));
+  const Points again = moved.inverse() * asymmetricRoom(rng);
+  EXPECT_GT(store.explainedShare(again, moved), 0.9);
+  EXPECT_FALSE(store.offer(again, moved));
+  // The same room 30 m away is new ground: stored, and then explained in its turn.
+  const Pose3 far(Eigen::Translation3d(30, 0, 0));
+  EXPECT_LT(store.explainedShare(here, far), 0.1);
+  EXPECT_TRUE(store.offer(here, far));
+  EXPECT_EQ(store.keyframes().size(), 2u);
+  EXPECT_GT(store.explainedShare(here, far), 0.9);
+  NoveltyParams bad;
+  bad.min_explained_share = 2.0;
+  EXPECT_THROW(NoveltyKeyframes{bad}, std::invalid_argument);
 }
 
 }  // namespace

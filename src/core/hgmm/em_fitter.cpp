@@ -12,8 +12,6 @@
 namespace ccir_mapping::core::hgmm {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093453;
-
 /// k-means++ (Arthur & Vassilvitskii 2007): each next centre drawn with probability
 /// proportional to the squared distance to the nearest centre so far.
 std::vector<Eigen::Vector3d> seedCentres(const Points& points, int k, std::mt19937_64& rng) {
@@ -55,21 +53,6 @@ std::vector<Gaussian> maximise(const Points& points, const Eigen::MatrixXd& resp
   return components;
 }
 
-/// log(w_k N(x_i | mu_k, Sigma_k)) for every component k and point i (K x n).
-Eigen::MatrixXd logWeightedDensities(const Points& points, const std::vector<Gaussian>& mixture) {
-  Eigen::MatrixXd out(static_cast<Eigen::Index>(mixture.size()), points.cols());
-  for (std::size_t k = 0; k < mixture.size(); ++k) {
-    const Eigen::LLT<Eigen::Matrix3d> llt(mixture[k].covariance);
-    const Eigen::Matrix3d l = llt.matrixL();
-    const Points z = l.triangularView<Eigen::Lower>().solve(points.colwise() - mixture[k].mean);
-    const double constant =
-        std::log(mixture[k].weight) - 1.5 * kLog2Pi - std::log(l.diagonal().prod());
-    out.row(static_cast<Eigen::Index>(k)) =
-        (constant - 0.5 * z.colwise().squaredNorm().array()).matrix();
-  }
-  return out;
-}
-
 }  // namespace
 
 EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
@@ -106,7 +89,7 @@ EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
   EmFit fit;
   Eigen::MatrixXd log_density;
   for (int iteration = 0; iteration < params.max_iterations; ++iteration) {
-    log_density = logWeightedDensities(points, mixture);
+    log_density = GaussianMixture(mixture).logComponentDensities(points);
     const Eigen::RowVectorXd peak = log_density.colwise().maxCoeff();
     const Eigen::RowVectorXd log_sum =
         peak.array() + (log_density.rowwise() - peak).array().exp().colwise().sum().log();
@@ -119,7 +102,7 @@ EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
     responsibility = (log_density.rowwise() - log_sum).array().exp();
     mixture = maximise(points, responsibility, params.covariance_floor_m2);
   }
-  log_density = logWeightedDensities(all_points, mixture);
+  log_density = GaussianMixture(mixture).logComponentDensities(all_points);
   fit.labels.resize(static_cast<std::size_t>(all_points.cols()));
   for (Eigen::Index i = 0; i < all_points.cols(); ++i) {
     Eigen::Index best = 0;

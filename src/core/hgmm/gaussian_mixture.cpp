@@ -74,6 +74,19 @@ double GaussianMixture::logDensity(const Eigen::Vector3d& x) const {
   return result;
 }
 
+Eigen::MatrixXd GaussianMixture::logComponentDensities(const Points& points) const {
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(size()), points.cols());
+  for (std::size_t k = 0; k < size(); ++k) {
+    const Points z =
+        cholesky_[k].triangularView<Eigen::Lower>().solve(points.colwise() - components_[k].mean);
+    out.row(static_cast<Eigen::Index>(k)) =
+        (log_normaliser_[k] - 1.5 * kLog2Pi - std::log(cholesky_[k].diagonal().prod()) -
+         0.5 * z.colwise().squaredNorm().array())
+            .matrix();
+  }
+  return out;
+}
+
 double GaussianMixture::meanLogLikelihood(const Points& points) const {
   if (points.cols() == 0) return 0.0;
   double sum = 0.0;

@@ -39,6 +39,8 @@ class GaussianMixture {
   double logDensity(const Eigen::Vector3d& x) const;
   /// log of component k's weighted density w_k N(x | mu_k, Sigma_k).
   double logComponentDensity(std::size_t k, const Eigen::Vector3d& x) const;
+  /// log(w_k N(x_i | mu_k, Sigma_k)) for every component k (row) and point i (column).
+  Eigen::MatrixXd logComponentDensities(const Points& points) const;
   /// Mean over the points of logDensity.
   double meanLogLikelihood(const Points& points) const;
 
