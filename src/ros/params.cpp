@@ -151,6 +151,11 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("motion_prior_weight", p.fabmap.motion_prior_weight);
   reader.read("scan_context_max_range_m", p.scan_context.max_range_m);
   reader.read("scan_context_ring_key_candidates", p.scan_context.ring_key_candidates);
+  reader.readChoice(
+      "hgmm_candidates", p.hgmm.candidates, core::place_recognition::parseMixtureCandidates,
+      core::place_recognition::kMixtureCandidatesChoices, &core::place_recognition::toString);
+  reader.read("hgmm_max_depth", p.hgmm.model.max_depth);
+  reader.read("hgmm_min_similarity", p.hgmm.registration.min_similarity);
   reader.read("complete_places", p.complete_places);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);

@@ -10,9 +10,12 @@
 // best-ranked place and of its verified closure, with their average precision, and what the
 // verification saw of each false closure.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <optional>
+#include <sstream>
+#include <string>
 
 #include <boost/program_options.hpp>
 
@@ -128,6 +131,8 @@ struct MethodResult {
   std::optional<core::Pose3> team_frame_error;
   /// The error left with exact loop-closure measurements (odometry drift alone).
   std::optional<core::Pose3> team_frame_drift_floor;
+  /// Mean wall time of a teammate query (ranking and verification against every place).
+  double ms_per_query = 0.0;
 };
 
 MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
@@ -152,8 +157,11 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   std::vector<bool> closure_true;
   std::vector<bool> closure_correct;
   std::vector<core::Pose3> closure_truth;
+  double query_s = 0.0;
   for (const Keyframe& q : queries) {
+    const auto start = std::chrono::steady_clock::now();
     const auto candidates = matcher.matchTeammate(q.described);
+    query_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       const bool truth = near(map[candidates[i].keyframe], q);
       result.candidates.add(truth);
@@ -196,6 +204,7 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
     closure_correct.push_back(correct);
     closure_truth.push_back(place.world_pose.inverse() * q.world_pose);
   }
+  result.ms_per_query = 1e3 * query_s / std::max<std::size_t>(1, queries.size());
   const auto aligned =
       core::alignment::estimateFrameTransform(closures, core::alignment::AlignmentParams{});
   if (!aligned.found) return result;
@@ -225,18 +234,23 @@ struct Options {
   double spacing_m = 2.0;
   double true_distance_m = 3.0;
   Eigen::Vector2d odom_noise_per_m{0.02, 0.005};
+  std::vector<pr::MatchMethod> methods;
   pr::MatcherParams params;
 };
 
 /// The options, or the exit code to end with (help, a usage error).
 std::optional<int> parse(int argc, char** argv, Options* o) {
   pr::MatcherParams& params = o->params;
+  std::string methods = "fabmap,histogram,scan_context,hgmm";
+  std::string hgmm_candidates = pr::toString(params.hgmm.candidates);
   po::options_description options(
       "Usage: eval_place_recognition --mission DIR --model DIR [options]\nPrints JSON.\n\nOptions",
       100);
   options.add_options()("help,h", "print this help and exit")(
       "mission", po::value<std::string>(&o->mission_dir), "simulate_team output (two robots used)")(
       "model", po::value<std::string>(&o->model_dir), "train_place_model output")(
+      "methods", po::value<std::string>(&methods)->default_value(methods),
+      "comma-separated methods to evaluate")(
       "keyframe-distance-m", po::value<double>(&o->spacing_m)->default_value(o->spacing_m),
       "odometry travel between keyframes [m]")(
       "true-distance-m", po::value<double>(&o->true_distance_m)->default_value(o->true_distance_m),
@@ -279,6 +293,15 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),
       "robot A's own keyframes younger than this are not matched [s]")(
+      "hgmm-candidates", po::value<std::string>(&hgmm_candidates)->default_value(hgmm_candidates),
+      "hgmm: places registered (scan_context | all)")(
+      "hgmm-max-depth",
+      po::value<int>(&params.hgmm.model.max_depth)->default_value(params.hgmm.model.max_depth),
+      "hgmm: levels below the root; the deepest is registered")(
+      "hgmm-min-similarity",
+      po::value<double>(&params.hgmm.registration.min_similarity)
+          ->default_value(params.hgmm.registration.min_similarity),
+      "hgmm: registered mixtures less similar are no candidates")(
       "odom-noise-m-per-m", po::value<double>(&o->odom_noise_per_m.x())->default_value(0.02),
       "odometry position noise (std per axis per sqrt(m) travelled; simulate_team's default)")(
       "odom-noise-rad-per-m", po::value<double>(&o->odom_noise_per_m.y())->default_value(0.005),
@@ -287,7 +310,19 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
           tools::parseCommandLine("eval_place_recognition", options, argc, argv)) {
     return exit_code;
   }
-  const auto errors = params.validate();
+  auto errors = params.validate();
+  const auto candidates = pr::parseMixtureCandidates(hgmm_candidates);
+  if (!candidates) errors.push_back("--hgmm-candidates: one of scan_context | all");
+  params.hgmm.candidates = candidates.value_or(params.hgmm.candidates);
+  std::stringstream list(methods);
+  for (std::string name; std::getline(list, name, ',');) {
+    const auto method = pr::parseMatchMethod(name);
+    if (!method)
+      errors.push_back("--methods: '" + name + "' is not one of " +
+                       std::string(pr::kMatchMethodChoices));
+    if (method) o->methods.push_back(*method);
+  }
+  if (o->methods.empty()) errors.push_back("--methods: none given");
   if (!errors.empty() || o->mission_dir.empty() || o->model_dir.empty() || !(o->spacing_m > 0) ||
       !(o->true_distance_m > 0)) {
     return tools::usageError(
@@ -301,6 +336,8 @@ struct Results {
   std::size_t map_keyframes = 0, query_keyframes = 0;
   int overlapping = 0;
   double words_per_keyframe = 0.0;
+  /// Reading the bags, features, words, Scan Context and (with hgmm) the mixture.
+  double describe_ms_per_keyframe = 0.0;
   std::vector<std::pair<pr::MatchMethod, MethodResult>> methods;
 };
 
@@ -309,15 +346,20 @@ Results run(const Options& o) {
   const auto model = pr::PlaceModel::load(o.model_dir);
   const std::vector<MissionBag> bags = missionBags(o.mission_dir);
   if (bags.size() < 2) throw std::runtime_error("the mission needs two robots");
-  // Described once for every method: with Scan Context's descriptor, which the others ignore.
+  // Described once for every method: with Scan Context's descriptor (and the mixture when hgmm is
+  // evaluated), which the others ignore.
   pr::MatcherParams describe_params = o.params;
-  describe_params.method = pr::MatchMethod::kScanContext;
+  const bool hgmm = std::count(o.methods.begin(), o.methods.end(), pr::MatchMethod::kHgmm) > 0;
+  describe_params.method = hgmm ? pr::MatchMethod::kHgmm : pr::MatchMethod::kScanContext;
   const pr::PlaceMatcher describer(describe_params, model);
   std::vector<std::vector<Keyframe>> robots;
+  const auto start = std::chrono::steady_clock::now();
   for (int r = 0; r < 2; ++r) {
     robots.push_back(keyframesOf(bags[r].path, bags[r].world_from_odom, o.spacing_m,
                                  o.odom_noise_per_m, describer));
   }
+  const double describe_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto& map = robots[0];
   const auto& queries = robots[1];
   Results results;
@@ -333,8 +375,9 @@ Results run(const Options& o) {
     for (const auto& k : robot) words += k.described.words.size();
   }
   results.words_per_keyframe = words / std::max<std::size_t>(1, map.size() + queries.size());
-  for (const pr::MatchMethod method :
-       {pr::MatchMethod::kFabmap, pr::MatchMethod::kHistogram, pr::MatchMethod::kScanContext}) {
+  results.describe_ms_per_keyframe =
+      1e3 * describe_s / std::max<std::size_t>(1, map.size() + queries.size());
+  for (const pr::MatchMethod method : o.methods) {
     results.methods.emplace_back(
         method, evaluate(method, o.params, model, map, queries, o.true_distance_m,
                          bags[0].world_from_odom.inverse() * bags[1].world_from_odom));
@@ -347,9 +390,10 @@ void report(const Options& o, const Results& results) {
       "{\n  \"benchmark\": \"place_recognition_eval\",\n  \"mission\": \"%s\",\n"
       "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
       "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n"
-      "  \"candidates_per_query\": %d,\n  \"methods\": {\n",
+      "  \"candidates_per_query\": %d,\n  \"describe_ms_per_keyframe\": %.1f,\n"
+      "  \"methods\": {\n",
       o.mission_dir.c_str(), results.map_keyframes, results.query_keyframes, results.overlapping,
-      results.words_per_keyframe, o.params.max_candidates);
+      results.words_per_keyframe, o.params.max_candidates, results.describe_ms_per_keyframe);
   const int overlapping = results.overlapping;
   for (const auto& [method, r] : results.methods) {
     auto stage = [&](const char* name, const Counts& c, const char* end) {
@@ -365,9 +409,9 @@ void report(const Options& o, const Results& results) {
         pr::toString(method), r.best_ranked.tp, r.best_ranked.fp, r.candidates.tp, r.candidates.fp);
     stage("verified", r.verified, ",");
     stage("team_frame", r.team_frame, ",");
-    std::printf("      \"recall_at_1\": %.3f, \"recall_at_5\": %.3f,\n",
+    std::printf("      \"recall_at_1\": %.3f, \"recall_at_5\": %.3f, \"ms_per_query\": %.1f,\n",
                 overlapping ? double(r.true_in_top1) / overlapping : 0.0,
-                overlapping ? double(r.true_in_top5) / overlapping : 0.0);
+                overlapping ? double(r.true_in_top5) / overlapping : 0.0, r.ms_per_query);
     for (const auto& [name, answers] :
          {std::pair{"best_ranked", &r.best_ranked_scores}, {"verified", &r.verified_scores}}) {
       const PrCurve curve = prCurve(*answers, overlapping);

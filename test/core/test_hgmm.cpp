@@ -148,6 +148,25 @@ TEST(L2Distance, ZeroForTheSameMixtureSymmetricAndAsMonteCarloSays) {
   EXPECT_NEAR(l2Distance(f, g), estimate, 0.05 * l2Distance(f, g));
 }
 
+TEST(Similarity, OneForTheSameMixtureFallingWithDistanceAndZeroWhenDisjoint) {
+  const GaussianMixture f = knownMixture();
+  const GaussianMixture g(
+      {gaussian(0.6, {0.5, 0, 0}, {1.0, 0.4, 0.3}), gaussian(0.4, {5, 2, 0}, {0.7, 0.5, 0.5})});
+  EXPECT_NEAR(similarity(f, f), 1.0, 1e-12);
+  EXPECT_NEAR(similarity(f, g), similarity(g, f), 1e-12);
+  EXPECT_NEAR(similarity(f, g), 1.0 - l2Distance(f, g) / (innerProduct(f, f) + innerProduct(g, g)),
+              1e-12);
+  double before = 1.0;
+  for (const double shift_m : {0.3, 1.0, 3.0}) {
+    const double s = similarity(f, transformed(f, Pose3(Eigen::Translation3d(shift_m, 0, 0))));
+    EXPECT_LT(s, before) << shift_m;
+    EXPECT_GT(s, 0.0) << shift_m;
+    before = s;
+  }
+  EXPECT_EQ(similarity(f, transformed(f, Pose3(Eigen::Translation3d(1000, 0, 0)))), 0.0);
+  EXPECT_EQ(similarity(f, GaussianMixture()), 0.0);
+}
+
 TEST(MixtureCodec, RoundTripIsCloseAndCorruptBytesAreRefused) {
   const GaussianMixture mixture = knownMixture();
   const std::vector<std::uint8_t> bytes = encodeMixture(mixture);
@@ -291,6 +310,7 @@ TEST(MixtureRegistration, BothWaysRecoverAKnownTransformAndRefuseA90DegreeStart)
   const Registration mixtures = registerMixtures(
       source.level(source.depth()), target.level(target.depth()), Pose3::Identity(), registration);
   ASSERT_TRUE(mixtures.accepted) << mixtures.reason;
+  EXPECT_GE(mixtures.similarity, registration.min_similarity);
   const Pose3 mixture_error = truth.inverse() * mixtures.transform;
   EXPECT_LT(mixture_error.translation().norm(), 0.01);
   EXPECT_LT(degrees(mixture_error), 0.2);
@@ -312,8 +332,9 @@ TEST(MixtureRegistration, BothWaysRecoverAKnownTransformAndRefuseA90DegreeStart)
       registerSampled(source.level(source.depth()), target_points, wrong, registration, rng);
   for (const Registration* r : {&lost, &lost_sampled}) {
     const Pose3 error = truth.inverse() * r->transform;
-    std::printf("from 90 degrees: %s, fitness %.3f, error %.1f deg\n",
-                r->accepted ? "accepted" : r->reason.c_str(), r->fitness_m2, degrees(error));
+    std::printf("from 90 degrees: %s, fitness %.3f, similarity %.3f, error %.1f deg\n",
+                r->accepted ? "accepted" : r->reason.c_str(), r->fitness_m2, r->similarity,
+                degrees(error));
     if (r->accepted) {  // accepted only if it found its way back
       EXPECT_LT(degrees(error), 1.0) << "accepted a wrong alignment, fitness " << r->fitness_m2;
     } else {

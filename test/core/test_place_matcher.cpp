@@ -119,7 +119,9 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
   EXPECT_LT(best->verification.relative.translation().norm(), 0.05);
   EXPECT_GE(best->correspondences, params.min_correspondences);
   for (const auto& c : candidates) {
-    if (c.keyframe == 1) EXPECT_FALSE(c.verification.accepted);
+    if (c.keyframe == 1) {
+      EXPECT_FALSE(c.verification.accepted);
+    }
   }
   EXPECT_EQ(matcher.places(), 4U);
   // As a loop closure: from the older keyframe (the place) to the new one.
@@ -161,6 +163,91 @@ TEST_F(PlaceMatcherTest, ScanContextFindsOwnLoopsAndReportsItsMethod) {
   EXPECT_EQ(best->keyframe, 0U);
   EXPECT_EQ(matcher.loopClosure("robot_a", *best, "robot_a", 2).method, "scan_context");
   EXPECT_EQ(best->new_place_probability, -1.0);
+}
+
+/// A room seen from its centre: floor, four walls 3 m high and pillars, each point with its
+/// surface normal; the same room seen by a sensor at `sensor` (the cloud in that frame).
+pcl::PointCloud<pcl::PointXYZINormal> room(const std::vector<Eigen::Vector2f>& pillars,
+                                           const Eigen::Isometry3f& sensor, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0F, 1.0F);
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  auto add = [&](const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
+    const Eigen::Vector3f q = sensor.inverse() * p;
+    const Eigen::Vector3f m = sensor.linear().transpose() * n;
+    pcl::PointXYZINormal point;
+    point.getVector3fMap() = q;
+    point.getNormalVector3fMap() = m;
+    cloud.push_back(point);
+  };
+  const float hx = 12.0F, hy = 7.0F;
+  for (int i = 0; i < 3000; ++i) {
+    add({(2 * u(rng) - 1) * hx, (2 * u(rng) - 1) * hy, -1.0F}, Eigen::Vector3f::UnitZ());
+    const float side = u(rng), t = 2 * u(rng) - 1, z = -1.0F + 3.0F * u(rng);
+    if (side < 0.25F)
+      add({hx, t * hy, z}, -Eigen::Vector3f::UnitX());
+    else if (side < 0.5F)
+      add({-hx, t * hy, z}, Eigen::Vector3f::UnitX());
+    else if (side < 0.75F)
+      add({t * hx, hy, z}, -Eigen::Vector3f::UnitY());
+    else
+      add({t * hx, -hy, z}, Eigen::Vector3f::UnitY());
+  }
+  for (const auto& c : pillars) {
+    for (int i = 0; i < 600; ++i) {
+      const float a = 2.0F * float(M_PI) * u(rng);
+      const Eigen::Vector3f n(std::cos(a), std::sin(a), 0.0F);
+      add(Eigen::Vector3f(c.x(), c.y(), -1.0F + 3.0F * u(rng)) + 0.6F * n, n);
+    }
+  }
+  return cloud;
+}
+
+TEST_F(PlaceMatcherTest, HgmmRegistersMixturesAndVerifiesFromTheirTransform) {
+  const std::vector<Eigen::Vector2f> layout_a{{4.0F, 2.0F}, {-6.0F, -3.0F}, {-1.0F, 4.0F}};
+  const std::vector<Eigen::Vector2f> layout_b{{-4.0F, 3.0F}, {7.0F, -2.0F}};
+  // The teammate sees room A's points (seed 1: a fresh sample of this synthetic room is too
+  // sparse for the walls' 0.1 m overlap test) from 0.5 m away, turned 30 degrees.
+  Eigen::Isometry3f seen_from = Eigen::Isometry3f::Identity();
+  seen_from.translate(Eigen::Vector3f(0.5F, -0.3F, 0.0F));
+  seen_from.rotate(Eigen::AngleAxisf(float(M_PI) / 6.0F, Eigen::Vector3f::UnitZ()));
+  const Eigen::Isometry3f origin = Eigen::Isometry3f::Identity();
+  for (const MixtureCandidates from : {MixtureCandidates::kScanContext, MixtureCandidates::kAll}) {
+    SCOPED_TRACE(toString(from));
+    MatcherParams params;
+    params.method = MatchMethod::kHgmm;
+    params.hgmm.candidates = from;
+    PlaceMatcher matcher(params, model_);
+    const features::LocalFeatures none;
+    auto describe = [&](KeyframeId id, const pcl::PointCloud<pcl::PointXYZINormal>& cloud) {
+      return matcher.describe(id, fromSeconds(0.0), cloud, none, Eigen::Vector3f::UnitZ());
+    };
+    DescribedKeyframe a = describe(0, room(layout_a, origin, 1));
+    ASSERT_TRUE(a.mixture && a.context) << "described with a mixture and Scan Context";
+    EXPECT_GT(a.mixture->size(), 8U) << "deeper than the root";
+    EXPECT_FALSE(keyframe(PlaceMatcher(MatcherParams{}, model_), 0, 0.0, 0).mixture)
+        << "only with that method";
+    matcher.addOwn(std::move(a));
+    matcher.addOwn(describe(1, room(layout_b, origin, 2)));
+
+    const auto candidates = matcher.matchTeammate(describe(7, room(layout_a, seen_from, 1)));
+    const MatchCandidate* best = bestAccepted(candidates);
+    ASSERT_NE(best, nullptr);
+    EXPECT_EQ(best->keyframe, 0U);
+    EXPECT_GT(best->score, params.hgmm.registration.min_similarity);
+    EXPECT_LE(best->score, 1.0);
+    EXPECT_EQ(best->verification.inliers, 0) << "no descriptors compared";
+    // The teammate's keyframe ("to") in the place's frame ("from") is where it was seen from.
+    const Pose3 error = seen_from.cast<double>().inverse() * best->verification.relative;
+    EXPECT_LT(error.translation().norm(), 0.05);
+    EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 1.0 * M_PI / 180.0);
+    for (const auto& c : candidates) {
+      if (c.keyframe == 1) {
+        EXPECT_FALSE(c.verification.accepted) << "the other room";
+      }
+    }
+    EXPECT_EQ(matcher.loopClosure("robot_a", *best, "robot_b", 7).method, "hgmm");
+  }
 }
 
 TEST_F(PlaceMatcherTest, OwnKeyframesCarryTheirOdometryAndPathLength) {
@@ -324,7 +411,9 @@ TEST_F(PlaceMatcherTest, CorrespondencesCountSharedWordsAboveTheMinimum) {
                           std::back_inserter(shared));
     EXPECT_EQ(result[i].second, static_cast<int>(shared.size()));
     EXPECT_GE(result[i].second, 3);
-    if (i > 0) EXPECT_LE(result[i].second, result[i - 1].second);
+    if (i > 0) {
+      EXPECT_LE(result[i].second, result[i - 1].second);
+    }
   }
   EXPECT_TRUE(matcher.correspondences({}).empty());
 }

@@ -68,6 +68,25 @@ TEST(ParamLoading, MatcherReadsScanContextSettingsIntoItsCoreStruct) {
   EXPECT_TRUE(hasError(bad, "scan_context_ring_key_candidates")) << bad.errors().size();
 }
 
+TEST(ParamLoading, MatcherReadsHgmmSettingsIntoItsCoreStruct) {
+  ParamReader reader{
+      params("{method: hgmm, hgmm_candidates: all, hgmm_max_depth: 2, hgmm_min_similarity: 0.3}")};
+  MatcherSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_EQ(settings.core.method, core::place_recognition::MatchMethod::kHgmm);
+  EXPECT_EQ(settings.core.hgmm.candidates, core::place_recognition::MixtureCandidates::kAll);
+  EXPECT_EQ(settings.core.hgmm.model.max_depth, 2);
+  EXPECT_DOUBLE_EQ(settings.core.hgmm.registration.min_similarity, 0.3);
+
+  ParamReader bad{params("{hgmm_candidates: some, hgmm_max_depth: 11, hgmm_min_similarity: 2}")};
+  MatcherSettings fresh;
+  load(bad, fresh);
+  for (const char* name : {"hgmm_candidates", "hgmm_max_depth", "hgmm_min_similarity"}) {
+    EXPECT_TRUE(hasError(bad, name)) << name;
+  }
+}
+
 TEST(ParamLoading, WrongTypesAreErrors) {
   ParamReader reader{params("{voxel_leaf_m: fine, fixed_rate_every_n: 2.5, mode: 3}")};
   PreprocessorSettings pre;

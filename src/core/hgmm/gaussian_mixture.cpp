@@ -22,19 +22,23 @@ double logSumExp(double a, double b) {
   return a > b ? a + std::log1p(std::exp(b - a)) : b + std::log1p(std::exp(a - b));
 }
 
-/// The pairwise term sum_ij a_i b_j N(mu_i; nu_j, S_i + T_j) of the L2 distance.
-double crossTerm(const GaussianMixture& f, const GaussianMixture& g) {
+}  // namespace
+
+double innerProduct(const GaussianMixture& f, const GaussianMixture& g) {
   double sum = 0.0;
   for (const Gaussian& a : f.components()) {
     for (const Gaussian& b : g.components()) {
-      const Eigen::LLT<Eigen::Matrix3d> llt(a.covariance + b.covariance);
+      // Means farther apart than sqrt(60 trace(S)) are at a squared Mahalanobis distance above
+      // 60 (trace >= largest eigenvalue): the term is below e^-30 of its peak. Skipping such
+      // pairs spares a scan-sized product most of its 3x3 factorisations.
+      const Eigen::Matrix3d s = a.covariance + b.covariance;
+      if ((a.mean - b.mean).squaredNorm() > 60.0 * s.trace()) continue;
+      const Eigen::LLT<Eigen::Matrix3d> llt(s);
       sum += a.weight * b.weight * std::exp(logGaussian(a.mean, b.mean, llt.matrixL()));
     }
   }
   return sum;
 }
-
-}  // namespace
 
 GaussianMixture::GaussianMixture(std::vector<Gaussian> components)
     : components_(std::move(components)) {
@@ -114,7 +118,12 @@ Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_m
 
 double l2Distance(const GaussianMixture& f, const GaussianMixture& g) {
   // Rounding can leave a tiny negative value for (near-)identical mixtures.
-  return std::max(0.0, crossTerm(f, f) - 2.0 * crossTerm(f, g) + crossTerm(g, g));
+  return std::max(0.0, innerProduct(f, f) - 2.0 * innerProduct(f, g) + innerProduct(g, g));
+}
+
+double similarity(const GaussianMixture& f, const GaussianMixture& g) {
+  const double norms = innerProduct(f, f) + innerProduct(g, g);
+  return norms > 0.0 ? 2.0 * innerProduct(f, g) / norms : 0.0;
 }
 
 }  // namespace ccir_mapping::core::hgmm

@@ -17,7 +17,7 @@ std::vector<std::string> EmParams::validate() const {
 std::vector<std::string> HgmmParams::validate() const {
   ParamCheck check;
   for (const auto& e : em.validate()) check.require(false, e);
-  check.inRange("max_depth", max_depth, 0, 10);
+  check.inRange("hgmm_max_depth", max_depth, 0, 10);
   check.inRange("min_points_to_split", min_points_to_split, 2, 100000000);
   return check.errors();
 }

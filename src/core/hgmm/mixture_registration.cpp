@@ -33,7 +33,7 @@ Gicp::MatricesVectorPtr covariances(const GaussianMixture& mixture) {
   return out;
 }
 
-/// Runs `gicp` (inputs set) from `guess` and judges the result.
+/// Runs `gicp` (inputs set) from `guess`; judged on convergence only.
 Registration align(Gicp& gicp, const Pose3& guess, const RegistrationParams& params) {
   Registration result;
   // GICP needs its k = 20 neighbours for covariances it estimates, and PCL requires 4
@@ -48,14 +48,8 @@ Registration align(Gicp& gicp, const Pose3& guess, const RegistrationParams& par
   gicp.align(moved, guess.matrix().cast<float>());
   result.transform = Pose3(gicp.getFinalTransformation().cast<double>());
   result.fitness_m2 = gicp.getFitnessScore(params.max_correspondence_m);
-  if (!gicp.hasConverged()) {
-    result.reason = "GICP did not converge";
-  } else if (!(result.fitness_m2 <= params.max_fitness_m2)) {
-    result.reason = "fitness " + std::to_string(result.fitness_m2) + " m^2 above " +
-                    std::to_string(params.max_fitness_m2);
-  } else {
-    result.accepted = true;
-  }
+  result.accepted = gicp.hasConverged();
+  if (!result.accepted) result.reason = "GICP did not converge";
   return result;
 }
 
@@ -67,6 +61,7 @@ std::vector<std::string> RegistrationParams::validate() const {
   check.inRange("max_iterations", max_iterations, 1, 10000);
   check.inHalfOpenRange("max_fitness_m2", max_fitness_m2, 0.0, 100.0);
   check.inRange("samples", samples, 10, 10000000);
+  check.inRange("hgmm_min_similarity", min_similarity, 0.0, 1.0);
   return check.errors();
 }
 
@@ -88,7 +83,15 @@ Registration registerMixtures(const GaussianMixture& source, const GaussianMixtu
   gicp.setInputTarget(toCloud(means(target)));
   gicp.setSourceCovariances(covariances(source));
   gicp.setTargetCovariances(covariances(target));
-  return align(gicp, guess, params);
+  Registration result = align(gicp, guess, params);
+  if (!result.accepted) return result;
+  result.similarity = similarity(transformed(source, result.transform), target);
+  if (!(result.similarity >= params.min_similarity)) {
+    result.accepted = false;
+    result.reason = "similarity " + std::to_string(result.similarity) + " below " +
+                    std::to_string(params.min_similarity);
+  }
+  return result;
 }
 
 Registration registerSampled(const GaussianMixture& source, const Points& target,
@@ -98,7 +101,13 @@ Registration registerSampled(const GaussianMixture& source, const Points& target
   Gicp gicp;
   gicp.setInputSource(toCloud(source.sample(std::size_t(params.samples), rng)));
   gicp.setInputTarget(toCloud(target));
-  return align(gicp, guess, params);
+  Registration result = align(gicp, guess, params);
+  if (result.accepted && !(result.fitness_m2 <= params.max_fitness_m2)) {
+    result.accepted = false;
+    result.reason = "fitness " + std::to_string(result.fitness_m2) + " m^2 above " +
+                    std::to_string(params.max_fitness_m2);
+  }
+  return result;
 }
 
 }  // namespace ccir_mapping::core::hgmm

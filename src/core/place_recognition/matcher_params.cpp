@@ -8,6 +8,7 @@ std::optional<MatchMethod> parseMatchMethod(std::string_view text) {
   if (text == "fabmap") return MatchMethod::kFabmap;
   if (text == "histogram") return MatchMethod::kHistogram;
   if (text == "scan_context") return MatchMethod::kScanContext;
+  if (text == "hgmm") return MatchMethod::kHgmm;
   return std::nullopt;
 }
 
@@ -19,8 +20,26 @@ const char* toString(MatchMethod method) {
       return "histogram";
     case MatchMethod::kScanContext:
       return "scan_context";
+    case MatchMethod::kHgmm:
+      return "hgmm";
   }
   return "?";
+}
+
+std::optional<MixtureCandidates> parseMixtureCandidates(std::string_view text) {
+  if (text == "scan_context") return MixtureCandidates::kScanContext;
+  if (text == "all") return MixtureCandidates::kAll;
+  return std::nullopt;
+}
+
+const char* toString(MixtureCandidates candidates) {
+  return candidates == MixtureCandidates::kAll ? "all" : "scan_context";
+}
+
+std::vector<std::string> MixtureMatchParams::validate() const {
+  auto errors = model.validate();
+  for (auto& error : registration.validate()) errors.push_back(std::move(error));
+  return errors;
 }
 
 std::vector<std::string> MatcherParams::validate() const {
@@ -36,6 +55,7 @@ std::vector<std::string> MatcherParams::validate() const {
   for (auto& error : verification.validate()) errors.push_back(std::move(error));
   for (auto& error : fabmap.validate()) errors.push_back(std::move(error));
   for (auto& error : scan_context.validate()) errors.push_back(std::move(error));
+  for (auto& error : hgmm.validate()) errors.push_back(std::move(error));
   return errors;
 }
 

@@ -6,6 +6,8 @@
 #include <stdexcept>
 
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/hgmm/hgmm.h"
+#include "ccir_mapping/core/hgmm/mixture_registration.h"
 #include "ccir_mapping/core/place_recognition/scan_context_index.h"
 
 namespace ccir_mapping::core::place_recognition {
@@ -127,10 +129,12 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
   k.stamp = stamp;
   k.words = model_->vocabulary.quantize(features.descriptors);
   k.scan = verifier_.prepare(cloud, std::move(features));
-  if (params_.method == MatchMethod::kScanContext) {
-    // Scan Context bins by azimuth and height: in a frame whose z is up.
-    const Eigen::Matrix3f level =
-        Eigen::Quaternionf::FromTwoVectors(up, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  if (params_.method == MatchMethod::kScanContext || params_.method == MatchMethod::kHgmm) {
+    // Scan Context bins by azimuth and height, and mixtures are registered from a heading: in a
+    // frame whose z is up.
+    k.level = Eigen::Quaterniond::FromTwoVectors(up.cast<double>(), Eigen::Vector3d::UnitZ())
+                  .toRotationMatrix();
+    const Eigen::Matrix3f level = k.level.cast<float>();
     pcl::PointCloud<pcl::PointXYZ> levelled;
     levelled.reserve(cloud.size());
     for (const auto& p : cloud) {
@@ -138,6 +142,18 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
       levelled.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
     }
     k.context.emplace(levelled, params_.scan_context);
+  }
+  if (params_.method == MatchMethod::kHgmm) {
+    const auto& points = *k.scan.cloud;
+    hgmm::Points levelled(3, static_cast<Eigen::Index>(points.size()));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      levelled.col(static_cast<Eigen::Index>(i)) =
+          k.level * points[i].getVector3fMap().cast<double>();
+    }
+    k.mixture =
+        points.empty()
+            ? hgmm::GaussianMixture()
+            : hgmm::Hgmm::build(levelled, params_.hgmm.model).level(params_.hgmm.model.max_depth);
   }
   return k;
 }
@@ -223,8 +239,7 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from,
     std::vector<double>* motion) const {
   const std::vector<int> shared = set.fabmap.sharedWords(query.words);
-  // Ranked places: (index, score).
-  std::vector<std::pair<std::size_t, double>> ranked;
+  std::vector<Ranked> ranked;
   double new_place_probability = -1.0;
   if (params_.method == MatchMethod::kFabmap) {
     // Places the query may not match are left out of the prior, so they take no mass.
@@ -236,40 +251,94 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     for (std::size_t i = 0; i < set.places.size(); ++i) {
       if (allowed[i] && shared[i] >= params_.min_correspondences &&
           posterior[i] >= params_.min_place_probability) {
-        ranked.emplace_back(i, posterior[i]);
+        ranked.push_back({i, posterior[i], std::nullopt});
       }
     }
     if (motion) *motion = posterior;
     std::stable_sort(ranked.begin(), ranked.end(),
-                     [](const auto& a, const auto& b) { return a.second > b.second; });
+                     [](const Ranked& a, const Ranked& b) { return a.score > b.score; });
   } else if (params_.method == MatchMethod::kScanContext) {
     if (!query.context) throw std::invalid_argument("a Scan Context query needs its descriptor");
     const auto matches = set.scan_context.query(
         *query.context, [&](std::size_t i) { return eligible(set.places[i]); });
-    for (const auto& m : matches) ranked.emplace_back(m.index, 1.0 - m.distance.distance);
+    for (const auto& m : matches) ranked.push_back({m.index, 1.0 - m.distance.distance, {}});
+  } else if (params_.method == MatchMethod::kHgmm) {
+    ranked = rankByMixtures(set, query, eligible, query_is_from);
   } else {
     for (const auto& peak : set.histogram.candidates(query.scan.features.descriptors)) {
-      if (eligible(set.places[peak.keyframe])) ranked.emplace_back(peak.keyframe, peak.votes);
+      if (eligible(set.places[peak.keyframe])) {
+        ranked.push_back({peak.keyframe, static_cast<double>(peak.votes), {}});
+      }
     }
   }
   if (ranked.size() > static_cast<std::size_t>(params_.max_candidates)) {
     ranked.resize(static_cast<std::size_t>(params_.max_candidates));
   }
   std::vector<MatchCandidate> candidates;
-  for (const auto& [index, score] : ranked) {
-    const DescribedKeyframe& place = set.places[index];
+  for (const Ranked& r : ranked) {
+    const DescribedKeyframe& place = set.places[r.index];
     MatchCandidate c;
-    c.robot = set.robots[index];
+    c.robot = set.robots[r.index];
     c.keyframe = place.id;
-    c.score = score;
+    c.score = r.score;
     c.new_place_probability = new_place_probability;
-    c.correspondences = shared[index];
-    const registration::PreparedScan& scan = ready(set, index);
+    c.correspondences = shared[r.index];
+    const registration::PreparedScan& scan = ready(set, r.index);
+    const registration::PreparedScan& from = query_is_from ? query.scan : scan;
+    const registration::PreparedScan& to = query_is_from ? scan : query.scan;
     c.verification =
-        query_is_from ? verifier_.verify(query.scan, scan) : verifier_.verify(scan, query.scan);
+        r.initial ? verifier_.verifyFrom(from, to, *r.initial) : verifier_.verify(from, to);
     candidates.push_back(std::move(c));
   }
   return candidates;
+}
+
+std::vector<PlaceMatcher::Ranked> PlaceMatcher::rankByMixtures(
+    const PlaceSet& set, const DescribedKeyframe& query,
+    const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from) const {
+  if (!query.mixture || !query.context) {
+    throw std::invalid_argument("an hgmm query needs its mixture and Scan Context");
+  }
+  // Candidate places with the headings (of the place's levelled frame in the query's) that
+  // registration starts from.
+  std::vector<std::pair<std::size_t, std::vector<double>>> starts;
+  if (params_.hgmm.candidates == MixtureCandidates::kScanContext) {
+    for (const auto& m : set.scan_context.query(
+             *query.context, [&](std::size_t i) { return eligible(set.places[i]); })) {
+      starts.push_back({m.index, {m.distance.yaw_rad}});
+    }
+  } else {
+    // GMM-to-GMM GICP converges from ~20 degrees off (gtest): 8 headings cover the circle.
+    std::vector<double> headings;
+    for (int k = 0; k < 8; ++k) headings.push_back(k * M_PI / 4.0);
+    for (std::size_t i = 0; i < set.places.size(); ++i) {
+      if (eligible(set.places[i])) starts.push_back({i, headings});
+    }
+  }
+  std::vector<Ranked> ranked;
+  for (const auto& [index, headings] : starts) {
+    const DescribedKeyframe& place = set.places[index];
+    if (!place.mixture || place.mixture->empty() || query.mixture->empty()) continue;
+    // GICP moves "to" onto "from", each mixture in its levelled frame.
+    const DescribedKeyframe& from = query_is_from ? query : place;
+    const DescribedKeyframe& to = query_is_from ? place : query;
+    std::optional<Ranked> best;
+    for (const double heading : headings) {
+      const double yaw = query_is_from ? heading : -heading;
+      const Pose3 guess(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+      const hgmm::Registration r =
+          hgmm::registerMixtures(*to.mixture, *from.mixture, guess, params_.hgmm.registration);
+      if (!r.accepted || (best && r.similarity <= best->score)) continue;
+      // The registered pose between the levelled frames, back in the sensor frames.
+      const Pose3 initial = Pose3(Eigen::Quaterniond(from.level.transpose())) * r.transform *
+                            Pose3(Eigen::Quaterniond(to.level));
+      best = Ranked{index, r.similarity, initial};
+    }
+    if (best) ranked.push_back(*best);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const Ranked& a, const Ranked& b) { return a.score > b.score; });
+  return ranked;
 }
 
 void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate& c) const {

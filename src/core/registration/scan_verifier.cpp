@@ -259,7 +259,19 @@ Verification ScanVerifier::verify(const PreparedScan& from_scan,
   ransac.getModelCoefficients(coefficients);
   const Eigen::Matrix4f initial =
       Eigen::Map<const Eigen::Matrix<float, 4, 4, Eigen::RowMajor>>(coefficients.data());
+  return refine(from_scan, to_scan, initial, std::move(v));
+}
 
+Verification ScanVerifier::verifyFrom(const PreparedScan& from_scan, const PreparedScan& to_scan,
+                                      const Pose3& initial) const {
+  if (!isComplete(from_scan) || !isComplete(to_scan)) {
+    throw std::invalid_argument("ScanVerifier::verifyFrom: a compacted scan (complete() it first)");
+  }
+  return refine(from_scan, to_scan, initial.matrix().cast<float>(), Verification());
+}
+
+Verification ScanVerifier::refine(const PreparedScan& from_scan, const PreparedScan& to_scan,
+                                  const Eigen::Matrix4f& initial, Verification v) const {
   // GICP needs a point per covariance neighbourhood in each cloud (its trees and covariances
   // are only made for such clouds).
   for (const PreparedScan* scan : {&from_scan, &to_scan}) {

@@ -62,4 +62,12 @@ class GaussianMixture {
 /// sum_ij b_i b_j N(nu_i; nu_j, T_i + T_j). Zero for identical mixtures, symmetric.
 double l2Distance(const GaussianMixture& f, const GaussianMixture& g);
 
+/// The integral of f g: sum_ij a_i b_j N(mu_i; nu_j, S_i + T_j), pairs at a squared
+/// Mahalanobis distance above 60 left out (each below e^-30 of its peak).
+double innerProduct(const GaussianMixture& f, const GaussianMixture& g);
+
+/// 2 <f, g> / (<f, f> + <g, g>) = 1 - L2 / (<f, f> + <g, g>): 1 for identical mixtures, 0 for
+/// disjoint ones, symmetric; what a place's mixture and a registered query's share.
+double similarity(const GaussianMixture& f, const GaussianMixture& g);
+
 }  // namespace ccir_mapping::core::hgmm

@@ -6,17 +6,39 @@
 #include <string_view>
 #include <vector>
 
+#include "ccir_mapping/core/hgmm/hgmm_params.h"
+#include "ccir_mapping/core/hgmm/mixture_registration.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/place_recognition/scan_context.h"
 #include "ccir_mapping/core/registration/verification_params.h"
 
 namespace ccir_mapping::core::place_recognition {
 
-/// FAB-MAP over bags of spin-image words, the histogram-of-descriptors baseline, or Scan Context.
-enum class MatchMethod { kFabmap, kHistogram, kScanContext };
-constexpr std::string_view kMatchMethodChoices = "fabmap | histogram | scan_context";
+/// FAB-MAP over bags of spin-image words, the histogram-of-descriptors baseline, Scan Context, or
+/// Gaussian mixtures registered to each other (thesis section 6.2).
+enum class MatchMethod { kFabmap, kHistogram, kScanContext, kHgmm };
+constexpr std::string_view kMatchMethodChoices = "fabmap | histogram | scan_context | hgmm";
 std::optional<MatchMethod> parseMatchMethod(std::string_view text);
 const char* toString(MatchMethod method);
+
+/// Which places method hgmm registers a query's mixture to: the Scan Context search's (their
+/// ring_key_candidates nearest, each from the yaw Scan Context found), or every eligible place
+/// from 8 headings 45 degrees apart (its cost grows with the places).
+enum class MixtureCandidates { kScanContext, kAll };
+constexpr std::string_view kMixtureCandidatesChoices = "scan_context | all";
+std::optional<MixtureCandidates> parseMixtureCandidates(std::string_view text);
+const char* toString(MixtureCandidates candidates);
+
+/// Method hgmm: each keyframe's verification cloud, levelled, becomes an HGMM whose deepest level
+/// is kept; a query's mixture is registered to the candidates' (GMM-to-GMM GICP), those accepted
+/// (registration.min_similarity) are ranked by the similarity of the registered mixtures, and
+/// the best verified from the registered transform.
+struct MixtureMatchParams {
+  hgmm::HgmmParams model;
+  hgmm::RegistrationParams registration;
+  MixtureCandidates candidates = MixtureCandidates::kScanContext;
+  std::vector<std::string> validate() const;
+};
 
 struct MatcherParams {
   MatchMethod method = MatchMethod::kFabmap;
@@ -37,6 +59,8 @@ struct MatcherParams {
   FabMapParams fabmap;
   /// Scan Context's grid and search.
   ScanContextParams scan_context;
+  /// Method hgmm's mixtures and their registration.
+  MixtureMatchParams hgmm;
   /// Places (own keyframes and teammates' scans) kept ready for verification, the most
   /// recently used: the others keep ~1/6 of it (their clouds, features and GICP covariances in
   /// single precision, ~0.25 MB) and are made ready again when a query ranks them by rebuilding

@@ -20,6 +20,7 @@
 #include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
+#include "ccir_mapping/core/hgmm/gaussian_mixture.h"
 #include "ccir_mapping/core/place_recognition/fabmap.h"
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
 #include "ccir_mapping/core/place_recognition/matcher_params.h"
@@ -38,15 +39,20 @@ struct DescribedKeyframe {
   double path_m = 0.0;
   WordSet words;
   registration::PreparedScan scan;
-  /// With method scan_context only.
+  /// With methods scan_context and hgmm: the descriptor of the cloud levelled by `level`
+  /// (sensor frame to one whose z is up).
   std::optional<ScanContext> context;
+  Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
+  /// With method hgmm: the deepest level of the levelled verification cloud's HGMM.
+  std::optional<hgmm::GaussianMixture> mixture;
 };
 
 struct MatchCandidate {
   /// The place: an own keyframe (robot empty) or a kept scan of the teammate `robot`.
   std::string robot;
   KeyframeId keyframe = 0;
-  /// FAB-MAP posterior, histogram votes, or 1 - the Scan Context distance.
+  /// FAB-MAP posterior, histogram votes, 1 - the Scan Context distance, or the similarity of the
+  /// registered mixtures.
   double score = 0.0;
   /// FAB-MAP: the query's p(new place) (the same for each of its candidates); the histogram
   /// has none: -1.
@@ -149,6 +155,16 @@ class PlaceMatcher {
                                     const std::function<bool(const DescribedKeyframe&)>& eligible,
                                     bool query_is_from,
                                     std::vector<double>* motion = nullptr) const;
+  /// A place ranked by a method, with the pose of "to" in "from" its ranking found (hgmm).
+  struct Ranked {
+    std::size_t index = 0;
+    double score = 0.0;
+    std::optional<Pose3> initial;
+  };
+  /// Method hgmm: the places whose mixtures registered to the query's, most similar first.
+  std::vector<Ranked> rankByMixtures(const PlaceSet& set, const DescribedKeyframe& query,
+                                     const std::function<bool(const DescribedKeyframe&)>& eligible,
+                                     bool query_is_from) const;
   void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
   /// The place's scan, complete for verification (ScanVerifier::complete).
   const registration::PreparedScan& ready(PlaceSet& set, std::size_t index) const;

@@ -80,6 +80,10 @@ class ScanVerifier {
   void complete(PreparedScan& scan) const;
 
   Verification verify(const PreparedScan& from, const PreparedScan& to) const;
+  /// The same tests from a transform found otherwise (a mixture registration): GICP starts from
+  /// `initial` (pose of "to" in "from"); no descriptors are compared (matches, inliers 0).
+  Verification verifyFrom(const PreparedScan& from, const PreparedScan& to,
+                          const Pose3& initial) const;
   Verification verify(const pcl::PointCloud<pcl::PointXYZINormal>& from_cloud,
                       const features::LocalFeatures& from,
                       const pcl::PointCloud<pcl::PointXYZINormal>& to_cloud,
@@ -98,6 +102,10 @@ class ScanVerifier {
   double freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
                             const pcl::PointCloud<pcl::PointXYZ>& from_cloud,
                             const Eigen::Matrix4f& from_to) const;
+
+  /// GICP from `initial`, then the fitness, overlap and free-space tests.
+  Verification refine(const PreparedScan& from, const PreparedScan& to,
+                      const Eigen::Matrix4f& initial, Verification v) const;
 
   VerificationParams params_;
 };
