@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-METHODS = {"fabmap": "C0", "histogram": "C1", "scan_context": "C2"}  # and their colours
+METHODS = {"fabmap": "C0", "histogram": "C1", "scan_context": "C2", "hgmm": "C3"}  # and their colours
 # The README's missions: 120 s, robots on each other's lanes, a 3 x 3-pillar mine.
 MISSION_FLAGS = ["--world", "mine", "--mine-pillars-x", "3", "--mine-pillars-y", "3",
                  "--robots", "2", "--duration-s", "120", "--overlap", "1"]

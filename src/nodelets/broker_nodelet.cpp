@@ -96,7 +96,7 @@ class BrokerNodelet final : public PipelineNodelet {
     pcl::PointCloud<pcl::PointXYZ> points;
     core::Pose3 pose;
     if (const auto error = measured("codec", [&] {
-          return conversions::toSharedScan(keyframe, shared.get(), &points, &pose);
+          return conversions::toSharedScan(keyframe, settings_.core, shared.get(), &points, &pose);
         })) {
       return drop("keyframes", "not sharing keyframe %lu: %s",
                   static_cast<unsigned long>(keyframe.id), error->c_str());

@@ -11,7 +11,7 @@
 #include <sensor_msgs/PointField.h>
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "ccir_mapping/core/transport/scan_codec.h"
+#include "ccir_mapping/core/routing/scan_encoding.h"
 #include "ccir_mapping/ros/topic_routes.h"
 
 namespace ccir_mapping::conversions {
@@ -479,18 +479,18 @@ std::optional<std::string> toScanPoints(const Keyframe& keyframe,
   return std::nullopt;
 }
 
-std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out,
+std::optional<std::string> toSharedScan(const Keyframe& keyframe,
+                                        const core::routing::BrokerParams& broker, SharedScan* out,
                                         pcl::PointCloud<pcl::PointXYZ>* xyz,
                                         core::Pose3* odom_pose) {
   pcl::PointCloud<pcl::PointXYZINormal> cloud;
   if (auto error = toKeyframeCloud(keyframe.cloud, &cloud)) return error;
   const auto pose = toPose(keyframe.odom_pose);
   if (!pose) return "odom_pose is not finite";
-  const auto points = core::transport::scanPointsOf(cloud);
   if (xyz) pcl::copyPointCloud(cloud, *xyz);
   if (odom_pose) *odom_pose = *pose;
   std::string error;
-  auto encoded = core::transport::encodeScan(points, &error);
+  auto encoded = core::routing::encodeKeyframeScan(cloud, broker, &error);
   if (!encoded) return error;
   out->header = keyframe.header;
   out->robot = keyframe.robot;
@@ -499,21 +499,28 @@ std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* ou
   out->odom_pose = keyframe.odom_pose;
   out->travelled_m = keyframe.travelled_m;
   out->rotated_rad = keyframe.rotated_rad;
-  out->point_count = static_cast<std::uint32_t>(points.size());
+  out->encoding = broker.scan_encoding == core::routing::ScanEncoding::kGmm
+                      ? SharedScan::ENCODING_GMM
+                      : SharedScan::ENCODING_CLOUD;
+  out->point_count = static_cast<std::uint32_t>(cloud.size());
   out->points = std::move(*encoded);
   return std::nullopt;
 }
 
 std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
                                       Keyframe* out) {
+  if (scan.encoding != SharedScan::ENCODING_CLOUD && scan.encoding != SharedScan::ENCODING_GMM) {
+    return "encoding " + std::to_string(scan.encoding) + " is unknown";
+  }
+  const auto encoding = scan.encoding == SharedScan::ENCODING_GMM
+                            ? core::routing::ScanEncoding::kGmm
+                            : core::routing::ScanEncoding::kCloud;
   std::string error;
-  const auto points = core::transport::decodeScan(scan.points, max_points, &error);
-  if (!points) return "points: " + error;
-  if (points->size() != scan.point_count) return std::string("point_count does not match points");
+  const auto cloud = core::routing::decodeKeyframeScan(scan.points, encoding, scan.point_count,
+                                                       max_points, scan.id, &error);
+  if (!cloud) return "points: " + error;
   if (!toPose(scan.odom_pose)) return std::string("odom_pose is not finite");
-  pcl::PointCloud<pcl::PointXYZINormal> cloud;
-  core::transport::cloudOf(*points, &cloud);
-  pcl::toROSMsg(cloud, out->cloud);
+  pcl::toROSMsg(*cloud, out->cloud);
   out->header = scan.header;
   out->cloud.header = scan.header;
   out->robot = scan.robot;

@@ -227,6 +227,9 @@ void load(ParamReader& reader, BrokerSettings& config) {
   reader.read("receipt_timeout_s", p.receipt_timeout_s);
   reader.read("max_offer_scans", p.max_offer_scans);
   reader.read("min_novelty", p.min_novelty);
+  reader.readChoice("scan_encoding", p.scan_encoding, core::routing::parseScanEncoding,
+                    core::routing::kScanEncodingChoices, &core::routing::toString);
+  reader.read("gmm_max_bytes", p.gmm_max_bytes);
   reader.read("fixed_rate_every_n", p.fixed_rate_every_n);
   reader.read("stats_period_s", p.stats_period_s);
   reader.addErrors(p.validate());

@@ -11,6 +11,7 @@
 #include "ccir_mapping/core/hgmm/mixture_codec.h"
 #include "ccir_mapping/core/hgmm/mixture_registration.h"
 #include "ccir_mapping/core/hgmm/novelty_keyframes.h"
+#include "ccir_mapping/core/hgmm/scan_mixture.h"
 
 namespace ccir_mapping::core::hgmm {
 namespace {
@@ -377,6 +378,44 @@ TEST(NoveltyKeyframes, ARevisitIsExplainedAndNewGroundIsStored) {
   NoveltyParams bad;
   bad.min_explained_share = 2.0;
   EXPECT_THROW(NoveltyKeyframes{bad}, std::invalid_argument);
+}
+
+TEST(ScanMixture, FitsItsBudgetAndSamplesPointsOnTheSurfacesWithNormalsTowardsTheSensor) {
+  std::mt19937_64 rng(5);
+  // The room seen from its middle, 1.5 m above the floor.
+  const Points points = room(rng).colwise() - Eigen::Vector3d(6.0, 4.0, 1.5);
+  const auto bytes = encodeScanMixture(points, 4000);
+  EXPECT_LE(bytes.size(), 4000U);
+  const Hgmm model = Hgmm::build(points, HgmmParams{});
+  EXPECT_EQ(decodeMixture(bytes).size(), model.components(*model.levelWithin(4000)));
+  EXPECT_EQ(encodeScanMixture(points, model.bytes(0)).size(), model.bytes(0)) << "the root";
+  EXPECT_THROW(encodeScanMixture(points, 100), std::invalid_argument) << "not even the root";
+  EXPECT_THROW(encodeScanMixture(Points(3, 0), 4000), std::invalid_argument);
+
+  const SampledScan scan = sampleScanMixture(bytes, 3000, 42);
+  ASSERT_EQ(scan.points.cols(), 3000);
+  ASSERT_EQ(scan.normals.cols(), 3000);
+  double distance = 0.0;
+  int floor = 0, floor_up = 0;
+  for (Eigen::Index i = 0; i < scan.points.cols(); ++i) {
+    const Eigen::Vector3d p = scan.points.col(i), n = scan.normals.col(i);
+    distance += std::sqrt((points.colwise() - p).colwise().squaredNorm().minCoeff());
+    EXPECT_NEAR(n.norm(), 1.0, 1e-9);
+    EXPECT_LE(n.dot(p), 1e-9) << "faces the sensor";
+    if (p.z() < -1.4 && std::abs(p.x()) < 5.0 && std::abs(p.y()) < 3.0) {
+      ++floor;
+      floor_up += n.z() > 0.9;
+    }
+  }
+  // Within the gate, but a Gaussian over a 12 m wall reaches past its ends.
+  EXPECT_LT(distance / 3000, 0.2) << "mean distance to the scan, m";
+  ASSERT_GT(floor, 100);
+  EXPECT_GT(floor_up, 0.9 * floor) << "the floor's samples point up";
+  EXPECT_EQ(sampleScanMixture(bytes, 3000, 42).points, scan.points) << "seeded";
+  EXPECT_NE(sampleScanMixture(bytes, 3000, 43).points, scan.points);
+  auto truncated = bytes;
+  truncated.pop_back();
+  EXPECT_THROW(sampleScanMixture(truncated, 10, 1), std::invalid_argument);
 }
 
 }  // namespace

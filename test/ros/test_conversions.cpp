@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <random>
 
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -178,7 +179,8 @@ TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
   SharedScan shared;
   pcl::PointCloud<pcl::PointXYZ> xyz;
   core::Pose3 pose_out;
-  ASSERT_FALSE(toSharedScan(keyframe, &shared, &xyz, &pose_out));
+  ASSERT_FALSE(toSharedScan(keyframe, core::routing::BrokerParams{}, &shared, &xyz, &pose_out));
+  EXPECT_EQ(shared.encoding, SharedScan::ENCODING_CLOUD);
   ASSERT_EQ(xyz.size(), cloud.size());
   EXPECT_EQ(xyz[7].getVector3fMap(), cloud[7].getVector3fMap());
   EXPECT_TRUE(pose_out.isApprox(odom_pose));
@@ -221,12 +223,68 @@ TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
   // A keyframe without normals or a valid pose has no wire form.
   auto velodyne = keyframe;
   velodyne.cloud = velodyneCloud(10);
-  EXPECT_TRUE(toSharedScan(velodyne, &shared));
+  EXPECT_TRUE(toSharedScan(velodyne, core::routing::BrokerParams{}, &shared));
   auto lost = keyframe;
   lost.odom_pose.orientation.w = 0.0;
-  const auto error = toSharedScan(lost, &shared);
+  const auto error = toSharedScan(lost, core::routing::BrokerParams{}, &shared);
   ASSERT_TRUE(error);
   EXPECT_EQ(*error, "odom_pose is not finite");
+}
+
+TEST(Conversions, KeyframeAsAGaussianMixtureAndBack) {
+  // A floor 1.2 m under the sensor, its normals up (towards the sensor).
+  pcl::PointCloud<pcl::PointXYZINormal> cloud;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-8.0F, 8.0F);
+  for (int i = 0; i < 2000; ++i) {
+    pcl::PointXYZINormal p;
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = -1.2F;
+    p.normal_z = 1.0F;
+    cloud.push_back(p);
+  }
+  core::preprocess::KeyframeSelector::Decision decision;
+  decision.id = 42;
+  std_msgs::Header header;
+  header.frame_id = "robot_a/velodyne";
+  const Keyframe keyframe =
+      toKeyframeMsg(header, "robot_a", "robot_a/odom", core::Pose3::Identity(), decision, cloud);
+  core::routing::BrokerParams gmm;
+  gmm.scan_encoding = core::routing::ScanEncoding::kGmm;
+  gmm.gmm_max_bytes = 2000;
+  SharedScan shared;
+  ASSERT_FALSE(toSharedScan(keyframe, gmm, &shared));
+  EXPECT_EQ(shared.encoding, SharedScan::ENCODING_GMM);
+  EXPECT_EQ(shared.point_count, 2000U);
+  EXPECT_LE(shared.points.size(), 2000U) << "within gmm_max_bytes";
+
+  Keyframe back;
+  ASSERT_FALSE(toKeyframe(shared, 100000, &back));
+  EXPECT_EQ(back.id, 42U);
+  pcl::PointCloud<pcl::PointXYZINormal> sampled;
+  ASSERT_FALSE(toKeyframeCloud(back.cloud, &sampled));
+  ASSERT_EQ(sampled.size(), 2000U) << "as many points as the keyframe had";
+  for (const auto& p : sampled) {
+    EXPECT_NEAR(p.z, -1.2, 0.05);
+    EXPECT_NEAR(p.normal_z, 1.0, 0.01) << "the floor's normal, towards the sensor";
+  }
+  Keyframe again;
+  ASSERT_FALSE(toKeyframe(shared, 100000, &again));
+  EXPECT_EQ(again.cloud.data, back.cloud.data) << "sampled with the keyframe id as seed";
+
+  EXPECT_TRUE(toKeyframe(shared, 1999, &back)) << "more points than this robot accepts";
+  auto unknown = shared;
+  unknown.encoding = 7;
+  const auto error = toKeyframe(unknown, 100000, &back);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(*error, "encoding 7 is unknown");
+  auto truncated = shared;
+  truncated.points.resize(truncated.points.size() - 3);
+  EXPECT_TRUE(toKeyframe(truncated, 100000, &back));
+  auto as_cloud = shared;
+  as_cloud.encoding = SharedScan::ENCODING_CLOUD;
+  EXPECT_TRUE(toKeyframe(as_cloud, 100000, &back)) << "a mixture is no point encoding";
 }
 
 TEST(Conversions, ScanPointsOfAKeyframeOrWhyNot) {

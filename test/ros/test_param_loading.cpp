@@ -87,6 +87,21 @@ TEST(ParamLoading, MatcherReadsHgmmSettingsIntoItsCoreStruct) {
   }
 }
 
+TEST(ParamLoading, BrokerReadsItsScanEncoding) {
+  ParamReader reader{params("{scan_encoding: gmm, gmm_max_bytes: 12000}")};
+  BrokerSettings settings;
+  load(reader, settings);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_EQ(settings.core.scan_encoding, core::routing::ScanEncoding::kGmm);
+  EXPECT_EQ(settings.core.gmm_max_bytes, 12000);
+
+  ParamReader bad{params("{scan_encoding: points, gmm_max_bytes: 100}")};
+  BrokerSettings fresh;
+  load(bad, fresh);
+  EXPECT_TRUE(hasError(bad, "scan_encoding"));
+  EXPECT_TRUE(hasError(bad, "gmm_max_bytes"));
+}
+
 TEST(ParamLoading, WrongTypesAreErrors) {
   ParamReader reader{params("{voxel_leaf_m: fine, fixed_rate_every_n: 2.5, mode: 3}")};
   PreprocessorSettings pre;

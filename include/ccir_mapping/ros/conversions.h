@@ -34,6 +34,7 @@
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/information/map_stage.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
+#include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/team/team_graph.h"
 #include "ccir_mapping/core/transport/bridge.h"
@@ -167,16 +168,18 @@ std::optional<std::string> toScanPoints(const Keyframe& keyframe,
                                         pcl::PointCloud<pcl::PointXYZ>* points,
                                         core::Pose3* odom_pose);
 
-/// A keyframe in its wire form (SharedScan.msg, core/transport/scan_codec.h), and when asked
-/// its points (x y z) and odometry pose. Returns an error naming what is wrong (the cloud is not
-/// a keyframe cloud, a value is not finite).
-std::optional<std::string> toSharedScan(const Keyframe& keyframe, SharedScan* out,
+/// A keyframe in its wire form (SharedScan.msg, core/routing/scan_encoding.h: `broker`'s
+/// scan_encoding), and when asked its points (x y z) and odometry pose. Returns an error naming
+/// what is wrong (the cloud is not a keyframe cloud, a value is not finite).
+std::optional<std::string> toSharedScan(const Keyframe& keyframe,
+                                        const core::routing::BrokerParams& broker, SharedScan* out,
                                         pcl::PointCloud<pcl::PointXYZ>* xyz = nullptr,
                                         core::Pose3* odom_pose = nullptr);
 /// Most points a teammate's scan may decode to (a VLP-16 sweep has ~29 k before filtering).
 constexpr std::size_t kMaxTeammateScanPoints = 1 << 20;
 /// A teammate's scan back as a keyframe (cloud x y z intensity normals, FLOAT32, as the
-/// Preprocessor makes it). `max_points` bounds what a peer can make this robot allocate.
+/// Preprocessor makes it; a mixture sampled with the keyframe id as seed). `max_points` bounds
+/// what a peer can make this robot allocate.
 std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
                                       Keyframe* out);
 

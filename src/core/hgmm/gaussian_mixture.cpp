@@ -98,8 +98,10 @@ double GaussianMixture::meanLogLikelihood(const Points& points) const {
   return sum / static_cast<double>(points.cols());
 }
 
-Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2) const {
+Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2,
+                               std::vector<std::size_t>* drawn) const {
   Points out(3, static_cast<Eigen::Index>(empty() ? 0 : n));
+  if (drawn) drawn->assign(static_cast<std::size_t>(out.cols()), 0);
   if (empty()) return out;
   std::vector<double> weights;
   for (const Gaussian& g : components_) weights.push_back(g.weight);
@@ -112,6 +114,7 @@ Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_m
       xi << normal(rng), normal(rng), normal(rng);
     } while (max_mahalanobis2 > 0.0 && xi.squaredNorm() > max_mahalanobis2);
     out.col(i) = components_[k].mean + cholesky_[k] * xi;
+    if (drawn) (*drawn)[static_cast<std::size_t>(i)] = k;
   }
   return out;
 }

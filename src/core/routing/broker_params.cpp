@@ -23,6 +23,16 @@ const char* toString(RoutingMode mode) {
   return "?";
 }
 
+std::optional<ScanEncoding> parseScanEncoding(std::string_view text) {
+  if (text == "cloud") return ScanEncoding::kCloud;
+  if (text == "gmm") return ScanEncoding::kGmm;
+  return std::nullopt;
+}
+
+const char* toString(ScanEncoding encoding) {
+  return encoding == ScanEncoding::kGmm ? "gmm" : "cloud";
+}
+
 std::vector<std::string> BrokerParams::validate() const {
   ParamCheck check;
   check.inRange("loop_closure_weight", loop_closure_weight, 0.0, 1.0);
@@ -33,6 +43,8 @@ std::vector<std::string> BrokerParams::validate() const {
   check.inRange("max_offer_scans", max_offer_scans, 1, 100000);
   check.inRange("min_novelty", min_novelty, 0.0, 1.0);
   check.inRange("fixed_rate_every_n", fixed_rate_every_n, 1, 100000);
+  // The root level (8 Gaussians) takes 173 bytes.
+  check.inRange("gmm_max_bytes", gmm_max_bytes, 200, 10000000);
   check.inRange("stats_period_s", stats_period_s, 0.05, 3600.0);
   return check.errors();
 }

@@ -3,7 +3,7 @@
 #include <pcl/common/io.h>
 
 #include "ccir_mapping/core/common/cpu_time.h"
-#include "ccir_mapping/core/transport/scan_codec.h"
+#include "ccir_mapping/core/routing/scan_encoding.h"
 
 namespace ccir_mapping::core::runner {
 
@@ -15,10 +15,10 @@ namespace {
 using KeyframeCloud = pcl::PointCloud<pcl::PointXYZINormal>;
 
 /// The wire form the Broker sends (as conversions::toSharedScan makes it of a Keyframe).
-std::shared_ptr<const WireScan> toWireScan(const std::string& robot, const SimKeyframe& keyframe) {
-  const auto points = transport::scanPointsOf(*keyframe.cloud);
+std::shared_ptr<const WireScan> toWireScan(const std::string& robot, const SimKeyframe& keyframe,
+                                           const routing::BrokerParams& params) {
   std::string error;
-  auto encoded = transport::encodeScan(points, &error);
+  auto encoded = routing::encodeKeyframeScan(*keyframe.cloud, params, &error);
   if (!encoded) throw std::runtime_error("cannot encode keyframe of " + robot + ": " + error);
   auto scan = std::make_shared<WireScan>();
   scan->robot = robot;
@@ -27,18 +27,10 @@ std::shared_ptr<const WireScan> toWireScan(const std::string& robot, const SimKe
   scan->odom_pose = keyframe.odom_pose;
   scan->travelled_m = static_cast<float>(keyframe.decision.travelled_m);
   scan->rotated_rad = static_cast<float>(keyframe.decision.rotated_rad);
-  scan->point_count = static_cast<std::uint32_t>(points.size());
+  scan->encoding = params.scan_encoding;
+  scan->point_count = static_cast<std::uint32_t>(keyframe.cloud->size());
   scan->points = std::move(*encoded);
   return scan;
-}
-
-/// The points of a wire form (as conversions::toKeyframe reads a SharedScan).
-std::optional<KeyframeCloud> toCloud(const WireScan& scan, std::string* error) {
-  const auto points = transport::decodeScan(scan.points, scan.point_count, error);
-  if (!points) return std::nullopt;
-  KeyframeCloud cloud;
-  transport::cloudOf(*points, &cloud);
-  return cloud;
 }
 
 std::shared_ptr<const information::Cloud> xyzOf(const KeyframeCloud& cloud) {
@@ -158,7 +150,8 @@ void RobotPipeline::onKeyframe(double now_s, const SimKeyframe& keyframe) {
   // Mapper and Broker.
   const auto xyz = xyzOf(*keyframe.cloud);
   map_.addOwn(keyframe.stamp, xyz, keyframe.odom_pose);
-  auto wire = measured("codec", [&] { return toWireScan(name_, keyframe); });
+  auto wire =
+      measured("codec", [&] { return toWireScan(name_, keyframe, broker_.ccir().params()); });
   const std::size_t bytes = serializedBytes(*wire);
   emit(now_s, measured("footprint", [&] {
          return broker_.addKeyframe(id, keyframe.stamp, keyframe.odom_pose, *xyz, std::move(wire),
@@ -200,7 +193,11 @@ void RobotPipeline::onMessage(double now_s, const TeamMessage& message) {
 
 void RobotPipeline::onScan(double now_s, const WireScan& scan) {
   std::string error;
-  const auto cloud = measured("codec", [&] { return toCloud(scan, &error); });
+  // As conversions::toKeyframe reads a SharedScan.
+  const auto cloud = measured("codec", [&] {
+    return routing::decodeKeyframeScan(scan.points, scan.encoding, scan.point_count,
+                                       scan.point_count, scan.id, &error);
+  });
   const auto out = broker_.onScan(scan.robot, scan.id, serializedBytes(scan),
                                   cloud ? std::nullopt : std::optional<std::string>(error));
   emit(now_s, out);

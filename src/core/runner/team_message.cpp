@@ -34,7 +34,7 @@ struct Size {
   }
   std::size_t operator()(const WireScan& m) const {
     return header(m.robot + "/velodyne") + text(m.robot) + 8 + text(m.robot + "/odom") + kPose + 4 +
-           4 + 4 + kLength + m.points.size();
+           4 + 1 + 4 + kLength + m.points.size();
   }
   std::size_t operator()(const std::shared_ptr<const WireScan>& m) const { return (*this)(*m); }
 };

@@ -47,8 +47,10 @@ class GaussianMixture {
   /// `n` points: each from a component drawn by weight, x = mu + L xi with L L^T = Sigma. With
   /// max_mahalanobis2 > 0 a draw farther than that (squared Mahalanobis distance; 7.81 is the
   /// 95 % chi-square quantile in 3D) is drawn again, so flat Gaussians do not spray points off
-  /// their surface. Deterministic for a given rng state.
-  Points sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2 = 7.81) const;
+  /// their surface. Deterministic for a given rng state. With `drawn`, also the component each
+  /// point came from.
+  Points sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2 = 7.81,
+                std::vector<std::size_t>* drawn = nullptr) const;
 
  private:
   std::vector<Gaussian> components_;

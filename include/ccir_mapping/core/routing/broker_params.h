@@ -15,6 +15,13 @@ constexpr std::string_view kRoutingModeChoices = "ccir | fixed_rate | all";
 std::optional<RoutingMode> parseRoutingMode(std::string_view text);
 const char* toString(RoutingMode mode);
 
+/// How a shared keyframe crosses the link: its points (transport/scan_codec.h) or a Gaussian
+/// mixture of them that the teammate samples (hgmm/scan_mixture.h).
+enum class ScanEncoding { kCloud, kGmm };
+constexpr std::string_view kScanEncodingChoices = "cloud | gmm";
+std::optional<ScanEncoding> parseScanEncoding(std::string_view text);
+const char* toString(ScanEncoding encoding);
+
 struct BrokerParams {
   RoutingMode mode = RoutingMode::kCcir;
   /// lambda in U = lambda * F + (1 - lambda) * I: weight of loop-closure potential against map
@@ -38,6 +45,9 @@ struct BrokerParams {
   double min_novelty = 0.25;
   /// fixed_rate mode: send every n-th keyframe.
   int fixed_rate_every_n = 5;
+  ScanEncoding scan_encoding = ScanEncoding::kCloud;
+  /// gmm: the deepest level of the scan's HGMM within this many bytes is sent.
+  int gmm_max_bytes = 8000;
   /// Period of BrokerStats.
   double stats_period_s = 1.0;
 

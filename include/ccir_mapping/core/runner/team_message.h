@@ -13,6 +13,7 @@
 
 #include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
 
 namespace ccir_mapping::core::runner {
@@ -27,7 +28,8 @@ struct WordsMessage {
   std::uint32_t descriptor_count = 0;
 };
 
-/// A keyframe's wire form (SharedScan): transport::encodeScan's bytes and what comes with them.
+/// A keyframe's wire form (SharedScan): routing::encodeKeyframeScan's bytes and what comes with
+/// them.
 struct WireScan {
   std::string robot;
   KeyframeId id = 0;
@@ -35,6 +37,7 @@ struct WireScan {
   Pose3 odom_pose = Pose3::Identity();
   float travelled_m = 0.0F;
   float rotated_rad = 0.0F;
+  routing::ScanEncoding encoding = routing::ScanEncoding::kCloud;
   std::uint32_t point_count = 0;
   std::vector<std::uint8_t> points;
 };
