@@ -22,6 +22,7 @@
 #include "bag_keyframes.h"
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/place_recognition/place_matcher.h"
+#include "ccir_mapping/core/routing/scan_encoding.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
@@ -41,9 +42,14 @@ struct Keyframe {
 };
 
 /// Keyframes of one robot's bag, with true world positions from its ground-truth odometry.
+/// The keyframes of a robot's bag, described by `matcher`. With `crossing`, each cloud first
+/// crosses the link in its scan_encoding (as a teammate's Broker receives it) and its features
+/// are extracted from what arrives; `bytes` adds up the wire forms.
 std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3& world_from_odom,
                                   double spacing_m, const Eigen::Vector2d& odom_noise_per_m,
-                                  const pr::PlaceMatcher& matcher) {
+                                  const pr::PlaceMatcher& matcher,
+                                  const core::routing::BrokerParams* crossing = nullptr,
+                                  std::size_t* bytes = nullptr) {
   BagKeyframeOptions options;
   options.truth_topic = "/ground_truth";
   options.keyframe_distance_m = spacing_m;
@@ -63,6 +69,18 @@ std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3
                                                        path_m);
     k.odom_covariance.diagonal().tail<3>().setConstant(odom_noise_per_m.y() * odom_noise_per_m.y() *
                                                        path_m);
+    if (crossing) {
+      std::string error;
+      const auto wire = core::routing::encodeKeyframeScan(*b.cloud, *crossing, &error);
+      const auto cloud =
+          wire ? core::routing::decodeKeyframeScan(*wire, crossing->scan_encoding, b.cloud->size(),
+                                                   b.cloud->size(), keyframes.size(), &error)
+               : std::nullopt;
+      if (!cloud) throw std::runtime_error("a query scan does not cross the link: " + error);
+      *bytes += wire->size();
+      *b.cloud = *cloud;
+      b.features = extractor.extract(*b.cloud, core::upInFrame(b.odom_pose));
+    }
     k.described = matcher.describe(keyframes.size(), b.stamp, *b.cloud, std::move(b.features),
                                    core::upInFrame(b.odom_pose));
     k.described.odom_pose = b.odom_pose;
@@ -236,13 +254,21 @@ struct Options {
   Eigen::Vector2d odom_noise_per_m{0.02, 0.005};
   std::vector<pr::MatchMethod> methods;
   pr::MatcherParams params;
+  /// How robot B's scans (the queries) reach robot A.
+  core::routing::BrokerParams crossing;
 };
+
+/// Robot B's scans, with --query-encoding gmm (cloud: as recorded).
+bool crossesAsMixture(const Options& o, int robot) {
+  return robot == 1 && o.crossing.scan_encoding == core::routing::ScanEncoding::kGmm;
+}
 
 /// The options, or the exit code to end with (help, a usage error).
 std::optional<int> parse(int argc, char** argv, Options* o) {
   pr::MatcherParams& params = o->params;
   std::string methods = "fabmap,histogram,scan_context,hgmm";
   std::string hgmm_candidates = pr::toString(params.hgmm.candidates);
+  std::string query_encoding = core::routing::toString(o->crossing.scan_encoding);
   po::options_description options(
       "Usage: eval_place_recognition --mission DIR --model DIR [options]\nPrints JSON.\n\nOptions",
       100);
@@ -302,6 +328,12 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       po::value<double>(&params.hgmm.registration.min_similarity)
           ->default_value(params.hgmm.registration.min_similarity),
       "hgmm: registered mixtures less similar are no candidates")(
+      "query-encoding", po::value<std::string>(&query_encoding)->default_value(query_encoding),
+      "how the queries cross the link (the Broker's scan_encoding): cloud (as recorded) | gmm "
+      "(described from the points drawn from their mixtures)")(
+      "gmm-max-bytes",
+      po::value<int>(&o->crossing.gmm_max_bytes)->default_value(o->crossing.gmm_max_bytes),
+      "gmm: most bytes of a query's mixture")(
       "odom-noise-m-per-m", po::value<double>(&o->odom_noise_per_m.x())->default_value(0.02),
       "odometry position noise (std per axis per sqrt(m) travelled; simulate_team's default)")(
       "odom-noise-rad-per-m", po::value<double>(&o->odom_noise_per_m.y())->default_value(0.005),
@@ -314,6 +346,11 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
   const auto candidates = pr::parseMixtureCandidates(hgmm_candidates);
   if (!candidates) errors.push_back("--hgmm-candidates: one of scan_context | all");
   params.hgmm.candidates = candidates.value_or(params.hgmm.candidates);
+  const auto encoding = core::routing::parseScanEncoding(query_encoding);
+  if (!encoding) errors.push_back("--query-encoding: one of cloud | gmm");
+  o->crossing.scan_encoding = encoding.value_or(o->crossing.scan_encoding);
+  const auto more = o->crossing.validate();
+  errors.insert(errors.end(), more.begin(), more.end());
   std::stringstream list(methods);
   for (std::string name; std::getline(list, name, ',');) {
     const auto method = pr::parseMatchMethod(name);
@@ -338,6 +375,8 @@ struct Results {
   double words_per_keyframe = 0.0;
   /// Reading the bags, features, words, Scan Context and (with hgmm) the mixture.
   double describe_ms_per_keyframe = 0.0;
+  /// Mean wire form of a query scan (--query-encoding).
+  double query_scan_bytes = 0.0;
   std::vector<std::pair<pr::MatchMethod, MethodResult>> methods;
 };
 
@@ -354,9 +393,11 @@ Results run(const Options& o) {
   const pr::PlaceMatcher describer(describe_params, model);
   std::vector<std::vector<Keyframe>> robots;
   const auto start = std::chrono::steady_clock::now();
+  std::size_t query_bytes = 0;
   for (int r = 0; r < 2; ++r) {
     robots.push_back(keyframesOf(bags[r].path, bags[r].world_from_odom, o.spacing_m,
-                                 o.odom_noise_per_m, describer));
+                                 o.odom_noise_per_m, describer,
+                                 crossesAsMixture(o, r) ? &o.crossing : nullptr, &query_bytes));
   }
   const double describe_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -365,6 +406,7 @@ Results run(const Options& o) {
   Results results;
   results.map_keyframes = map.size();
   results.query_keyframes = queries.size();
+  results.query_scan_bytes = double(query_bytes) / std::max<std::size_t>(1, queries.size());
   for (const Keyframe& q : queries) {
     results.overlapping += std::any_of(map.begin(), map.end(), [&](const Keyframe& m) {
       return (q.world_position - m.world_position).norm() <= o.true_distance_m;
@@ -391,9 +433,10 @@ void report(const Options& o, const Results& results) {
       "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
       "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n"
       "  \"candidates_per_query\": %d,\n  \"describe_ms_per_keyframe\": %.1f,\n"
-      "  \"methods\": {\n",
+      "  \"query_encoding\": \"%s\",\n  \"query_scan_bytes\": %.0f,\n  \"methods\": {\n",
       o.mission_dir.c_str(), results.map_keyframes, results.query_keyframes, results.overlapping,
-      results.words_per_keyframe, o.params.max_candidates, results.describe_ms_per_keyframe);
+      results.words_per_keyframe, o.params.max_candidates, results.describe_ms_per_keyframe,
+      core::routing::toString(o.crossing.scan_encoding), results.query_scan_bytes);
   const int overlapping = results.overlapping;
   for (const auto& [method, r] : results.methods) {
     auto stage = [&](const char* name, const Counts& c, const char* end) {
