@@ -59,7 +59,8 @@ class MatcherNodelet final : public PipelineNodelet {
     return measured("describe", [&] {
       return keyframe.robot == robot()
                  ? matcher_->describeOwn(keyframe.id, stamp, cloud, *pose)
-                 : matcher_->describeTeammate(keyframe.id, stamp, cloud, *pose);
+                 : matcher_->describeTeammate(keyframe.id, stamp, cloud, *pose,
+                                              keyframe.drawn_from_mixture);
     });
   }
 

@@ -529,6 +529,7 @@ std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_po
   out->odom_pose = scan.odom_pose;
   out->travelled_m = scan.travelled_m;
   out->rotated_rad = scan.rotated_rad;
+  out->drawn_from_mixture = encoding == core::routing::ScanEncoding::kGmm;
   return std::nullopt;
 }
 

@@ -166,6 +166,8 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("overlap_distance_m", v.overlap_distance_m);
   reader.read("max_free_space_violation", v.max_free_space_violation);
   reader.read("free_space_margin_m", v.free_space_margin_m);
+  reader.read("mixture_overlap_distance_m", v.mixture_overlap_distance_m);
+  reader.read("mixture_free_space_margin_m", v.mixture_free_space_margin_m);
   reader.addErrors(p.validate());
 }
 

@@ -82,7 +82,7 @@ std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3
       b.features = extractor.extract(*b.cloud, core::upInFrame(b.odom_pose));
     }
     k.described = matcher.describe(keyframes.size(), b.stamp, *b.cloud, std::move(b.features),
-                                   core::upInFrame(b.odom_pose));
+                                   core::upInFrame(b.odom_pose), crossing != nullptr);
     k.described.odom_pose = b.odom_pose;
     k.described.path_m = path_m;
     keyframes.push_back(std::move(k));

@@ -422,6 +422,38 @@ TEST(ScanVerifier, SurfaceWhereTheOtherScanSawFreeSpaceIsRejected) {
   }
 }
 
+TEST(ScanVerifier, AScanDrawnFromAMixtureIsJudgedAtTheMixtureTolerances) {
+  // The same room, its second scan's points between the first's and 0.12 m off the walls on
+  // either side (as points drawn from flat Gaussians lie): none within 0.1 m of the first's.
+  const auto measured = room(8.0F, 0.1F);
+  pcl::PointCloud<pcl::PointXYZINormal> drawn;
+  for (const auto& p : room(8.0F, 0.1F)) {
+    auto q = p;
+    const Eigen::Vector3f normal = p.getNormalVector3fMap();
+    const Eigen::Vector3f along = normal.cross(Eigen::Vector3f::UnitZ());
+    q.getVector3fMap() +=
+        0.05F * (along + Eigen::Vector3f::UnitZ()) + (drawn.size() % 2 ? 0.12F : -0.12F) * normal;
+    drawn.push_back(q);
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
+  features::LocalFeatures features;
+  for (int i = 0; i < 20; ++i) {
+    features::SpinImage d;
+    for (float& v : d) v = 0.5F + 0.05F * u(rng);
+    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
+    features.descriptors.push_back(d);
+  }
+  const ScanVerifier verifier{VerificationParams{}};
+  const Verification as_measured =
+      verifier.verify(verifier.prepare(measured, features), verifier.prepare(drawn, features));
+  EXPECT_FALSE(as_measured.accepted);
+  EXPECT_NE(as_measured.reason.find("wall overlap"), std::string::npos) << as_measured.reason;
+  const Verification as_drawn = verifier.verify(verifier.prepare(measured, features),
+                                                verifier.prepare(drawn, features, true));
+  EXPECT_TRUE(as_drawn.accepted) << as_drawn.reason;
+}
+
 TEST(ScanVerifier, ACloudWithNothingToAlignIsRejectedNotCrashed) {
   // Features that agree, but no point within gicp_max_range_m (40 m) in one cloud.
   const auto near = room(8.0F, 0.1F);

@@ -198,6 +198,7 @@ TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
   EXPECT_EQ(back.odom_pose.position.y, 2.0);
   EXPECT_EQ(back.travelled_m, 1.5F);
   EXPECT_EQ(back.rotated_rad, 0.25F);
+  EXPECT_FALSE(back.drawn_from_mixture);
   pcl::PointCloud<pcl::PointXYZINormal> points;
   ASSERT_FALSE(toKeyframeCloud(back.cloud, &points));  // the layout the Matcher reads
   ASSERT_EQ(points.size(), 200U);
@@ -262,6 +263,7 @@ TEST(Conversions, KeyframeAsAGaussianMixtureAndBack) {
   Keyframe back;
   ASSERT_FALSE(toKeyframe(shared, 100000, &back));
   EXPECT_EQ(back.id, 42U);
+  EXPECT_TRUE(back.drawn_from_mixture);
   pcl::PointCloud<pcl::PointXYZINormal> sampled;
   ASSERT_FALSE(toKeyframeCloud(back.cloud, &sampled));
   ASSERT_EQ(sampled.size(), 2000U) << "as many points as the keyframe had";

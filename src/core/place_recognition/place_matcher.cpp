@@ -123,12 +123,12 @@ DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
 DescribedKeyframe PlaceMatcher::describe(KeyframeId id, Stamp stamp,
                                          const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                          features::LocalFeatures features,
-                                         const Eigen::Vector3f& up) const {
+                                         const Eigen::Vector3f& up, bool drawn_from_mixture) const {
   DescribedKeyframe k;
   k.id = id;
   k.stamp = stamp;
   k.words = model_->vocabulary.quantize(features.descriptors);
-  k.scan = verifier_.prepare(cloud, std::move(features));
+  k.scan = verifier_.prepare(cloud, std::move(features), drawn_from_mixture);
   if (params_.method == MatchMethod::kScanContext || params_.method == MatchMethod::kHgmm) {
     // Scan Context bins by azimuth and height, and mixtures are registered from a heading: in a
     // frame whose z is up.
@@ -169,8 +169,11 @@ DescribedKeyframe PlaceMatcher::describeOwn(KeyframeId id, Stamp stamp,
 
 DescribedKeyframe PlaceMatcher::describeTeammate(KeyframeId id, Stamp stamp,
                                                  const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                                                 const Pose3& odom_pose) const {
-  DescribedKeyframe k = describe(id, stamp, cloud, upInFrame(odom_pose));
+                                                 const Pose3& odom_pose,
+                                                 bool drawn_from_mixture) const {
+  const Eigen::Vector3f up = upInFrame(odom_pose);
+  DescribedKeyframe k =
+      describe(id, stamp, cloud, extractor_.extract(cloud, up), up, drawn_from_mixture);
   k.odom_pose = odom_pose;
   return k;
 }

@@ -81,7 +81,7 @@ class Gicp : public pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::Po
 
 double ScanVerifier::freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
                                         const pcl::PointCloud<pcl::PointXYZ>& from_cloud,
-                                        const Eigen::Matrix4f& from_to) const {
+                                        const Eigen::Matrix4f& from_to, double margin_m) const {
   const float resolution = pcl::deg2rad(static_cast<float>(params_.range_image_resolution_deg));
   pcl::RangeImage image;
   image.createFromPointCloud(from_cloud, resolution, resolution, pcl::deg2rad(360.0F),
@@ -90,7 +90,7 @@ double ScanVerifier::freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to
   pcl::PointCloud<pcl::PointXYZ> moved;
   pcl::transformPointCloud(to_walls, moved, from_to);
   const auto range2 = static_cast<float>(params_.overlap_range_m * params_.overlap_range_m);
-  const auto margin = static_cast<float>(params_.free_space_margin_m);
+  const auto margin = static_cast<float>(margin_m);
   int seen = 0;
   int violating = 0;
   for (const auto& p : moved) {
@@ -124,14 +124,13 @@ double ScanVerifier::freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to
 }
 
 double ScanVerifier::wallOverlap(const PreparedScan& to, const PreparedScan& from,
-                                 const Eigen::Matrix4f& from_to) const {
+                                 const Eigen::Matrix4f& from_to, double distance_m) const {
   if (from.walls->empty()) return 0.0;
   pcl::PointCloud<pcl::PointXYZ> moved;
   pcl::transformPointCloud(*to.walls, moved, from_to);
   const PreparedScan::Tree& tree = *from.walls_tree;
   const auto range2 = static_cast<float>(params_.overlap_range_m * params_.overlap_range_m);
-  const auto distance2 =
-      static_cast<float>(params_.overlap_distance_m * params_.overlap_distance_m);
+  const auto distance2 = static_cast<float>(distance_m * distance_m);
   int inside = 0;
   int explained = 0;
   pcl::Indices index(1);
@@ -147,7 +146,8 @@ double ScanVerifier::wallOverlap(const PreparedScan& to, const PreparedScan& fro
 ScanVerifier::ScanVerifier(const VerificationParams& params) : params_(validated(params)) {}
 
 PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                                   features::LocalFeatures features) const {
+                                   features::LocalFeatures features,
+                                   bool drawn_from_mixture) const {
   pcl::PointCloud<pcl::PointXYZINormal> walls;
   for (const auto& p : cloud) {
     if (std::abs(p.normal_z) < params_.wall_normal_z) walls.push_back(p);
@@ -156,6 +156,7 @@ PreparedScan ScanVerifier::prepare(const pcl::PointCloud<pcl::PointXYZINormal>& 
   scan.cloud = prepared(cloud, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.walls = prepared(walls, params_.gicp_voxel_m, params_.gicp_max_range_m);
   scan.features = std::move(features);
+  scan.drawn_from_mixture = drawn_from_mixture;
   complete(scan);
   return scan;
 }
@@ -308,21 +309,24 @@ Verification ScanVerifier::refine(const PreparedScan& from_scan, const PreparedS
                std::to_string(params_.max_fitness_m2);
     return v;
   }
+  const bool drawn = from_scan.drawn_from_mixture || to_scan.drawn_from_mixture;
+  const double distance_m = drawn ? params_.mixture_overlap_distance_m : params_.overlap_distance_m;
+  const double margin_m = drawn ? params_.mixture_free_space_margin_m : params_.free_space_margin_m;
   // Both ways: a scan that sees the mine's outer wall where the other sees a drift fails one.
-  v.overlap = wallOverlap(to_scan, from_scan, from_to);
+  v.overlap = wallOverlap(to_scan, from_scan, from_to, distance_m);
   if (v.overlap >= params_.min_overlap) {
-    v.overlap = std::min(v.overlap, wallOverlap(from_scan, to_scan, from_to.inverse()));
+    v.overlap = std::min(v.overlap, wallOverlap(from_scan, to_scan, from_to.inverse(), distance_m));
   }
   if (!(v.overlap >= params_.min_overlap)) {
     v.reason = "wall overlap " + std::to_string(v.overlap) + " below " +
                std::to_string(params_.min_overlap);
     return v;
   }
-  v.free_space_violation = freeSpaceViolation(*to_scan.walls, *from_scan.cloud, from_to);
+  v.free_space_violation = freeSpaceViolation(*to_scan.walls, *from_scan.cloud, from_to, margin_m);
   if (v.free_space_violation <= params_.max_free_space_violation) {
     v.free_space_violation =
         std::max(v.free_space_violation,
-                 freeSpaceViolation(*from_scan.walls, *to_scan.cloud, from_to.inverse()));
+                 freeSpaceViolation(*from_scan.walls, *to_scan.cloud, from_to.inverse(), margin_m));
   }
   if (!(v.free_space_violation <= params_.max_free_space_violation)) {
     v.reason = "free-space violation " + std::to_string(v.free_space_violation) + " above " +

@@ -21,6 +21,8 @@ std::vector<std::string> VerificationParams::validate() const {
   check.inHalfOpenRange("overlap_range_m", overlap_range_m, 0.0, 300.0);
   check.inRange("max_free_space_violation", max_free_space_violation, 0.0, 1.0);
   check.inHalfOpenRange("free_space_margin_m", free_space_margin_m, 0.0, 10.0);
+  check.inHalfOpenRange("mixture_overlap_distance_m", mixture_overlap_distance_m, 0.0, 10.0);
+  check.inHalfOpenRange("mixture_free_space_margin_m", mixture_free_space_margin_m, 0.0, 10.0);
   check.inHalfOpenRange("range_image_resolution_deg", range_image_resolution_deg, 0.0, 10.0);
   check.inRange("wall_normal_z", wall_normal_z, 0.0, 1.0);
   return check.errors();

@@ -205,7 +205,8 @@ void RobotPipeline::onScan(double now_s, const WireScan& scan) {
   // Published on teammate_scans: Backend, Matcher and Mapper take it.
   backend_->add(TeamGraphWorker::PeerKeyframe{scan.robot, scan.id, scan.odom_pose});
   auto described = measured("describe", [&] {
-    return matcher_.describeTeammate(scan.id, scan.stamp, *cloud, scan.odom_pose);
+    return matcher_.describeTeammate(scan.id, scan.stamp, *cloud, scan.odom_pose,
+                                     scan.encoding == routing::ScanEncoding::kGmm);
   });
   closeLoop(now_s, measured("match", [&] { return matcher_.matchTeammate(described); }), scan.robot,
             scan.id, described.odom_pose);

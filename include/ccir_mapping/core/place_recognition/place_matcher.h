@@ -96,17 +96,19 @@ class PlaceMatcher {
                                 const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
                                 const Pose3& odom_pose) const;
   /// A teammate's keyframe, described with its odometry pose in the teammate's frame (gravity
-  /// comes from it; the closures found with it carry it).
+  /// comes from it; the closures found with it carry it). `drawn_from_mixture`: its points were
+  /// drawn from the mixture it crossed the link as (verified with the mixture tolerances).
   DescribedKeyframe describeTeammate(KeyframeId id, Stamp stamp,
                                      const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                                     const Pose3& odom_pose) const;
+                                     const Pose3& odom_pose, bool drawn_from_mixture = false) const;
   /// Counts the odometry distance to an own keyframe (also to one that is dropped: the robot
   /// moved all the same).
   void addOwnTravel(double travelled_m) { path_m_ += travelled_m; }
   /// The same for features already extracted with model().features.
   DescribedKeyframe describe(KeyframeId id, Stamp stamp,
                              const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                             features::LocalFeatures features, const Eigen::Vector3f& up) const;
+                             features::LocalFeatures features, const Eigen::Vector3f& up,
+                             bool drawn_from_mixture = false) const;
 
   /// Why a teammate's word set cannot be used, or nullopt: made with another vocabulary (kind
   /// "other vocabulary"), or ids not sorted, unique and below the vocabulary's size ("malformed

@@ -63,6 +63,8 @@ struct PreparedScan {
   pcl::PointCloud<pcl::PointXYZ>::ConstPtr walls;
   Tree::Ptr walls_tree;
   features::LocalFeatures features;
+  /// Drawn from a Gaussian mixture, not measured (VerificationParams::mixture_*).
+  bool drawn_from_mixture = false;
 };
 
 class ScanVerifier {
@@ -71,7 +73,7 @@ class ScanVerifier {
   explicit ScanVerifier(const VerificationParams& params);
 
   PreparedScan prepare(const pcl::PointCloud<pcl::PointXYZINormal>& cloud,
-                       features::LocalFeatures features) const;
+                       features::LocalFeatures features, bool drawn_from_mixture = false) const;
   /// What a prepared scan keeps while it waits (its clouds, features and packed covariances,
   /// ~1/5 of it): the search trees, double covariances and GICP source go, and complete() makes
   /// them again without estimating a covariance.
@@ -93,15 +95,15 @@ class ScanVerifier {
 
  private:
   /// Share of `to`'s walls, moved by `from_to`, within overlap_range_m of the origin that lie
-  /// within overlap_distance_m of `from`'s walls.
+  /// within `distance_m` of `from`'s walls.
   double wallOverlap(const PreparedScan& to, const PreparedScan& from,
-                     const Eigen::Matrix4f& from_to) const;
+                     const Eigen::Matrix4f& from_to, double distance_m) const;
 
   /// Share of `to_walls`, moved by `from_to`, within overlap_range_m that `from_cloud`'s range
-  /// image shows as free space (VerificationParams::max_free_space_violation).
+  /// image shows as free space beyond `margin_m` (VerificationParams::max_free_space_violation).
   double freeSpaceViolation(const pcl::PointCloud<pcl::PointXYZ>& to_walls,
                             const pcl::PointCloud<pcl::PointXYZ>& from_cloud,
-                            const Eigen::Matrix4f& from_to) const;
+                            const Eigen::Matrix4f& from_to, double margin_m) const;
 
   /// GICP from `initial`, then the fitness, overlap and free-space tests.
   Verification refine(const PreparedScan& from, const PreparedScan& to,
