@@ -11,9 +11,12 @@
 // verification saw of each false closure.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -21,6 +24,7 @@
 
 #include "bag_keyframes.h"
 #include "ccir_mapping/core/alignment/frame_alignment.h"
+#include "ccir_mapping/core/hgmm/novelty_keyframes.h"
 #include "ccir_mapping/core/place_recognition/place_matcher.h"
 #include "ccir_mapping/core/routing/scan_encoding.h"
 #include "command_line.h"
@@ -42,14 +46,16 @@ struct Keyframe {
 };
 
 /// Keyframes of one robot's bag, with true world positions from its ground-truth odometry.
-/// The keyframes of a robot's bag, described by `matcher`. With `crossing`, each cloud first
-/// crosses the link in its scan_encoding (as a teammate's Broker receives it) and its features
-/// are extracted from what arrives; `bytes` adds up the wire forms.
-std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3& world_from_odom,
-                                  double spacing_m, const Eigen::Vector2d& odom_noise_per_m,
-                                  const pr::PlaceMatcher& matcher,
-                                  const core::routing::BrokerParams* crossing = nullptr,
-                                  std::size_t* bytes = nullptr) {
+using KeyframeCloud = pcl::PointCloud<pcl::PointXYZINormal>;
+
+/// The keyframes of a robot's bag, described by `matcher` (and each handed to `on_keyframe`). With
+/// `crossing`, each cloud first crosses the link in its scan_encoding (as a teammate's Broker
+/// receives it) and its features are extracted from what arrives; `bytes` adds up the wire forms.
+std::vector<Keyframe> keyframesOf(
+    const std::string& bag_file, const core::Pose3& world_from_odom, double spacing_m,
+    const Eigen::Vector2d& odom_noise_per_m, const pr::PlaceMatcher& matcher,
+    const core::routing::BrokerParams* crossing = nullptr, std::size_t* bytes = nullptr,
+    const std::function<void(const Keyframe&, const KeyframeCloud&)>& on_keyframe = {}) {
   BagKeyframeOptions options;
   options.truth_topic = "/ground_truth";
   options.keyframe_distance_m = spacing_m;
@@ -85,6 +91,7 @@ std::vector<Keyframe> keyframesOf(const std::string& bag_file, const core::Pose3
                                    core::upInFrame(b.odom_pose), crossing != nullptr);
     k.described.odom_pose = b.odom_pose;
     k.described.path_m = path_m;
+    if (on_keyframe) on_keyframe(k, *b.cloud);
     keyframes.push_back(std::move(k));
   });
   return keyframes;
@@ -377,6 +384,13 @@ struct Results {
   double describe_ms_per_keyframe = 0.0;
   /// Mean wire form of a query scan (--query-encoding).
   double query_scan_bytes = 0.0;
+  /// With hgmm: robot A's keyframes offered to the HGMM novelty store (thesis 6.2), those it
+  /// stored, its bytes, the points' bytes (x y z float32) and the ground they cover (1 m cells
+  /// of the world's x y holding a point).
+  struct Store {
+    std::size_t offered = 0, stored = 0, bytes = 0, cloud_bytes = 0, mapped_m2 = 0;
+  };
+  std::optional<Store> store;
   std::vector<std::pair<pr::MatchMethod, MethodResult>> methods;
 };
 
@@ -394,16 +408,38 @@ Results run(const Options& o) {
   std::vector<std::vector<Keyframe>> robots;
   const auto start = std::chrono::steady_clock::now();
   std::size_t query_bytes = 0;
+  Results results;
+  core::hgmm::NoveltyKeyframes store{core::hgmm::NoveltyParams{}};
+  std::set<std::pair<long, long>> cells;
+  auto toStore = [&](const Keyframe& k, const KeyframeCloud& cloud) {
+    core::hgmm::Points points(3, static_cast<Eigen::Index>(cloud.size()));
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const Eigen::Vector3d p = cloud[i].getVector3fMap().cast<double>();
+      points.col(static_cast<Eigen::Index>(i)) = p;
+      const Eigen::Vector3d w = k.world_pose * p;
+      cells.emplace(std::lround(std::floor(w.x())), std::lround(std::floor(w.y())));
+    }
+    auto& s = *results.store;
+    ++s.offered;
+    s.stored += store.offer(points, k.world_pose);
+    s.cloud_bytes += 12 * cloud.size();
+  };
+  if (hgmm) results.store.emplace();
   for (int r = 0; r < 2; ++r) {
-    robots.push_back(keyframesOf(bags[r].path, bags[r].world_from_odom, o.spacing_m,
-                                 o.odom_noise_per_m, describer,
-                                 crossesAsMixture(o, r) ? &o.crossing : nullptr, &query_bytes));
+    robots.push_back(keyframesOf(
+        bags[r].path, bags[r].world_from_odom, o.spacing_m, o.odom_noise_per_m, describer,
+        crossesAsMixture(o, r) ? &o.crossing : nullptr, &query_bytes,
+        hgmm && r == 0 ? std::function<void(const Keyframe&, const KeyframeCloud&)>(toStore)
+                       : nullptr));
+  }
+  if (results.store) {
+    results.store->bytes = store.bytes();
+    results.store->mapped_m2 = cells.size();
   }
   const double describe_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto& map = robots[0];
   const auto& queries = robots[1];
-  Results results;
   results.map_keyframes = map.size();
   results.query_keyframes = queries.size();
   results.query_scan_bytes = double(query_bytes) / std::max<std::size_t>(1, queries.size());
@@ -437,6 +473,13 @@ void report(const Options& o, const Results& results) {
       o.mission_dir.c_str(), results.map_keyframes, results.query_keyframes, results.overlapping,
       results.words_per_keyframe, o.params.max_candidates, results.describe_ms_per_keyframe,
       core::routing::toString(o.crossing.scan_encoding), results.query_scan_bytes);
+  if (const auto& s = results.store) {
+    const double m2 = double(std::max<std::size_t>(1, s->mapped_m2));
+    std::printf(
+        "  \"hgmm_store\": {\"offered\": %zu, \"stored\": %zu, \"bytes\": %zu, \"mapped_m2\": %zu, "
+        "\"bytes_per_m2\": %.1f, \"cloud_bytes_per_m2\": %.1f},\n",
+        s->offered, s->stored, s->bytes, s->mapped_m2, s->bytes / m2, s->cloud_bytes / m2);
+  }
   const int overlapping = results.overlapping;
   for (const auto& [method, r] : results.methods) {
     auto stage = [&](const char* name, const Counts& c, const char* end) {
