@@ -323,6 +323,14 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       po::value<double>(&params.verification.free_space_margin_m)
           ->default_value(params.verification.free_space_margin_m),
       "verification: ... beyond this margin [m]")(
+      "mixture-overlap-distance-m",
+      po::value<double>(&params.verification.mixture_overlap_distance_m)
+          ->default_value(params.verification.mixture_overlap_distance_m),
+      "verification with a query drawn from its mixture: overlap distance [m]")(
+      "mixture-free-space-margin-m",
+      po::value<double>(&params.verification.mixture_free_space_margin_m)
+          ->default_value(params.verification.mixture_free_space_margin_m),
+      "... and free-space margin [m]")(
       "loop-exclusion-s",
       po::value<double>(&params.loop_exclusion_s)->default_value(params.loop_exclusion_s),
       "robot A's own keyframes younger than this are not matched [s]")(

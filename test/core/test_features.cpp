@@ -381,6 +381,21 @@ pcl::PointCloud<pcl::PointXYZINormal> room(float half_m, float step) {
   return cloud;
 }
 
+/// 20 keypoints in the room, with descriptors: the same on both sides of a pair, RANSAC finds
+/// the identity and the room's geometry decides.
+features::LocalFeatures roomKeypoints() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
+  features::LocalFeatures features;
+  for (int i = 0; i < 20; ++i) {
+    features::SpinImage d;
+    for (float& v : d) v = 0.5F + 0.05F * u(rng);
+    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
+    features.descriptors.push_back(d);
+  }
+  return features;
+}
+
 TEST(ScanVerifier, SurfaceWhereTheOtherScanSawFreeSpaceIsRejected) {
   // The same room, but one scan also sees a pillar face 4 m ahead that the other looked past:
   // the walls still overlap almost entirely, the pillar lies in the other's free space.
@@ -399,15 +414,7 @@ TEST(ScanVerifier, SurfaceWhereTheOtherScanSawFreeSpaceIsRejected) {
       with_pillar.push_back(p);
     }
   }
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
-  features::LocalFeatures features;
-  for (int i = 0; i < 20; ++i) {
-    features::SpinImage d;
-    for (float& v : d) v = 0.5F + 0.05F * u(rng);
-    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
-    features.descriptors.push_back(d);
-  }
+  const features::LocalFeatures features = roomKeypoints();
   const ScanVerifier verifier{VerificationParams{}};
   const Verification same = verifier.verify(empty, features, empty, features);
   EXPECT_TRUE(same.accepted) << same.reason;
@@ -435,15 +442,7 @@ TEST(ScanVerifier, AScanDrawnFromAMixtureIsJudgedAtTheMixtureTolerances) {
         0.05F * (along + Eigen::Vector3f::UnitZ()) + (drawn.size() % 2 ? 0.12F : -0.12F) * normal;
     drawn.push_back(q);
   }
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
-  features::LocalFeatures features;
-  for (int i = 0; i < 20; ++i) {
-    features::SpinImage d;
-    for (float& v : d) v = 0.5F + 0.05F * u(rng);
-    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
-    features.descriptors.push_back(d);
-  }
+  const features::LocalFeatures features = roomKeypoints();
   const ScanVerifier verifier{VerificationParams{}};
   const Verification as_measured =
       verifier.verify(verifier.prepare(measured, features), verifier.prepare(drawn, features));
@@ -462,15 +461,7 @@ TEST(ScanVerifier, ACloudWithNothingToAlignIsRejectedNotCrashed) {
     p.x += 100.0F;
     far.push_back(p);
   }
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(-6.0F, 6.0F);
-  features::LocalFeatures features;
-  for (int i = 0; i < 20; ++i) {
-    features::SpinImage d;
-    for (float& v : d) v = 0.5F + 0.05F * u(rng);
-    features.keypoints.emplace_back(u(rng), u(rng), u(rng) / 4);
-    features.descriptors.push_back(d);
-  }
+  const features::LocalFeatures features = roomKeypoints();
   const ScanVerifier verifier{VerificationParams{}};
   for (const auto& v :
        {verifier.verify(near, features, far, features),
