@@ -477,7 +477,7 @@ void report(const Options& o, const Results& results) {
       "  \"map_keyframes\": %zu,\n  \"query_keyframes\": %zu,\n"
       "  \"overlapping_queries\": %d,\n  \"words_per_keyframe\": %.1f,\n"
       "  \"candidates_per_query\": %d,\n  \"describe_ms_per_keyframe\": %.1f,\n"
-      "  \"query_encoding\": \"%s\",\n  \"query_scan_bytes\": %.0f,\n  \"methods\": {\n",
+      "  \"query_encoding\": \"%s\",\n  \"query_scan_bytes\": %.0f,\n",
       o.mission_dir.c_str(), results.map_keyframes, results.query_keyframes, results.overlapping,
       results.words_per_keyframe, o.params.max_candidates, results.describe_ms_per_keyframe,
       core::routing::toString(o.crossing.scan_encoding), results.query_scan_bytes);
@@ -488,6 +488,7 @@ void report(const Options& o, const Results& results) {
         "\"bytes_per_m2\": %.1f, \"cloud_bytes_per_m2\": %.1f},\n",
         s->offered, s->stored, s->bytes, s->mapped_m2, s->bytes / m2, s->cloud_bytes / m2);
   }
+  std::printf("  \"methods\": {\n");
   const int overlapping = results.overlapping;
   for (const auto& [method, r] : results.methods) {
     auto stage = [&](const char* name, const Counts& c, const char* end) {

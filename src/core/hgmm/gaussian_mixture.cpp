@@ -93,9 +93,12 @@ Eigen::MatrixXd GaussianMixture::logComponentDensities(const Points& points) con
 
 double GaussianMixture::meanLogLikelihood(const Points& points) const {
   if (points.cols() == 0) return 0.0;
-  double sum = 0.0;
-  for (Eigen::Index i = 0; i < points.cols(); ++i) sum += logDensity(points.col(i));
-  return sum / static_cast<double>(points.cols());
+  if (empty()) return -std::numeric_limits<double>::infinity();
+  // log-sum-exp over the components, all points at once (the hierarchy's split test calls this
+  // for every node).
+  const Eigen::MatrixXd log_density = logComponentDensities(points);
+  const Eigen::RowVectorXd peak = log_density.colwise().maxCoeff();
+  return (peak.array() + (log_density.rowwise() - peak).array().exp().colwise().sum().log()).mean();
 }
 
 Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2,

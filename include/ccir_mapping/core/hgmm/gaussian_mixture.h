@@ -55,7 +55,7 @@ class GaussianMixture {
  private:
   std::vector<Gaussian> components_;
   std::vector<Eigen::Matrix3d> cholesky_;  // lower factors L
-  std::vector<double> log_normaliser_;     // log w_k - 1.5 log(2 pi) - log det L
+  std::vector<double> log_normaliser_;     // log w_k
   double total_weight_ = 0.0;
 };
 
