@@ -67,8 +67,9 @@ TEST(EmFit, RecoversAKnownMixtureAndNeverLosesLikelihood) {
         << estimate.covariance << "\n vs \n"
         << real.covariance;
   }
-  // The fit explains the points about as well as the truth does.
+  // The fit explains the points about as well as the truth does, and says so itself.
   EXPECT_GT(fit.mixture.meanLogLikelihood(points), truth.meanLogLikelihood(points) - 0.01);
+  EXPECT_NEAR(fit.mean_log_likelihood, fit.mixture.meanLogLikelihood(points), 1e-9);
 }
 
 TEST(EmFit, FewPointsAndDuplicatesGiveFewerComponentsNotNaNs) {
@@ -129,11 +130,27 @@ TEST(GaussianMixture, RefusesInvalidComponents) {
   EXPECT_THROW(GaussianMixture({gaussian(0.0, {0, 0, 0}, {1, 1, 1})}), std::invalid_argument);
 }
 
+TEST(GaussianMixture, LogSumExpSkipsOnlyWhatCannotChangeTheSum) {
+  Eigen::MatrixXd v(3, 3);
+  v << 0.0, -1000.0, 5.0,  //
+      -1.0, -1000.5, 5.0,  //
+      -40.0, -2000.0, -700.0;
+  const Eigen::RowVectorXd sums = logSumExpColumns(v);
+  EXPECT_NEAR(sums(0), std::log(1.0 + std::exp(-1.0) + std::exp(-40.0)), 1e-15);
+  EXPECT_NEAR(sums(1), -1000.0 + std::log(1.0 + std::exp(-0.5)), 1e-12);  // no underflow
+  EXPECT_NEAR(sums(2), 5.0 + std::log(2.0), 1e-15);
+  const Eigen::MatrixXd r = normalisedExp(v, sums);
+  EXPECT_NEAR(r.col(1).sum(), 1.0, 1e-12);
+  EXPECT_EQ(r(2, 0), 0.0);  // e^-40 of the column: below the double's epsilon
+  EXPECT_NEAR(r(0, 2), 0.5, 1e-15);
+}
+
 TEST(L2Distance, ZeroForTheSameMixtureSymmetricAndAsMonteCarloSays) {
   const GaussianMixture f = knownMixture();
   const GaussianMixture g(
       {gaussian(0.6, {0.5, 0, 0}, {1.0, 0.4, 0.3}), gaussian(0.4, {5, 2, 0}, {0.7, 0.5, 0.5})});
   EXPECT_NEAR(l2Distance(f, f), 0.0, 1e-12);
+  EXPECT_NEAR(innerProduct(f, f), innerProduct(f, GaussianMixture(f.components())), 1e-15);
   EXPECT_NEAR(l2Distance(f, g), l2Distance(g, f), 1e-12);
   EXPECT_GT(l2Distance(f, g), 0.0);
   // integral (f - g)^2 = E_f[f - g] - E_g[f - g].

@@ -34,15 +34,29 @@ std::vector<Gaussian> maximise(const Points& points, const Eigen::MatrixXd& resp
                                double floor_m2) {
   std::vector<Gaussian> components;
   const double n = static_cast<double>(points.cols());
+  // Two passes per component over the points it explains: most responsibilities are exactly 0
+  // (normalisedExp), so this is cheaper than dense products over every point.
   for (Eigen::Index k = 0; k < responsibility.rows(); ++k) {
-    const Eigen::RowVectorXd r = responsibility.row(k);
-    const double mass = r.sum();
+    double mass = 0.0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+      const double r = responsibility(k, i);
+      if (r == 0.0) continue;
+      mass += r;
+      sum += r * points.col(i);
+    }
     if (!(mass >= 1.0)) continue;
     Gaussian g;
     g.weight = mass / n;
-    g.mean = points * r.transpose() / mass;
-    const Points centred = points.colwise() - g.mean;
-    g.covariance = (centred * r.asDiagonal() * centred.transpose()) / mass;
+    g.mean = sum / mass;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+      const double r = responsibility(k, i);
+      if (r == 0.0) continue;
+      const Eigen::Vector3d d = points.col(i) - g.mean;
+      scatter.noalias() += r * d * d.transpose();
+    }
+    g.covariance = scatter / mass;
     g.covariance = 0.5 * (g.covariance + g.covariance.transpose());
     g.covariance.diagonal().array() += floor_m2;
     components.push_back(g);
@@ -90,16 +104,14 @@ EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
   Eigen::MatrixXd log_density;
   for (int iteration = 0; iteration < params.max_iterations; ++iteration) {
     log_density = GaussianMixture(mixture).logComponentDensities(points);
-    const Eigen::RowVectorXd peak = log_density.colwise().maxCoeff();
-    const Eigen::RowVectorXd log_sum =
-        peak.array() + (log_density.rowwise() - peak).array().exp().colwise().sum().log();
+    const Eigen::RowVectorXd log_sum = logSumExpColumns(log_density);
     fit.log_likelihoods.push_back(log_sum.mean());
     const std::size_t done = fit.log_likelihoods.size();
     if (done > 1 &&
         fit.log_likelihoods[done - 1] - fit.log_likelihoods[done - 2] < params.tolerance) {
       break;
     }
-    responsibility = (log_density.rowwise() - log_sum).array().exp();
+    responsibility = normalisedExp(log_density, log_sum);
     mixture = maximise(points, responsibility, params.covariance_floor_m2);
   }
   log_density = GaussianMixture(mixture).logComponentDensities(all_points);
@@ -109,6 +121,7 @@ EmFit fitGaussianMixture(const Points& all_points, const EmParams& params) {
     log_density.col(i).maxCoeff(&best);
     fit.labels[static_cast<std::size_t>(i)] = static_cast<int>(best);
   }
+  fit.mean_log_likelihood = logSumExpColumns(log_density).mean();
   fit.mixture = GaussianMixture(std::move(mixture));
   return fit;
 }

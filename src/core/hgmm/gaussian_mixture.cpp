@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/LU>
+
 namespace ccir_mapping::core::hgmm {
 namespace {
 
@@ -16,26 +18,47 @@ double logGaussian(const Eigen::Vector3d& x, const Eigen::Vector3d& mu, const Ei
   return -0.5 * (3 * kLog2Pi + z.squaredNorm()) - std::log(l.diagonal().prod());
 }
 
+/// Terms this far below the largest are left out of sums of exponentials: e^-36.04 is the
+/// double's epsilon, so adding them to the largest term (1) changes nothing.
+const double kNegligibleLog = std::log(std::numeric_limits<double>::epsilon());
+
 double logSumExp(double a, double b) {
   if (a == -std::numeric_limits<double>::infinity()) return b;
   if (b == -std::numeric_limits<double>::infinity()) return a;
   return a > b ? a + std::log1p(std::exp(b - a)) : b + std::log1p(std::exp(a - b));
 }
 
+/// w_a w_b N(mu_a; mu_b, S_a + S_b), or 0 at a squared Mahalanobis distance above 60 (the term
+/// below e^-30 of its peak). Means farther apart than sqrt(60 trace(S)) are rejected before any
+/// 3x3 algebra (trace >= largest eigenvalue), and the inverse is by cofactors: a scan-sized
+/// product has hundreds of thousands of pairs.
+double gaussianProduct(const Gaussian& a, const Gaussian& b) {
+  const Eigen::Vector3d d = a.mean - b.mean;
+  const double d2 = d.squaredNorm();
+  if (d2 > 60.0 * (a.covariance.trace() + b.covariance.trace())) return 0.0;
+  const Eigen::Matrix3d s = a.covariance + b.covariance;
+  const double det = s.determinant();
+  const double m = d.dot(s.inverse() * d);
+  if (m > 60.0) return 0.0;
+  constexpr double kEightPiCubed = 248.05021344239853;  // (2 pi)^3
+  return a.weight * b.weight * std::exp(-0.5 * m) / std::sqrt(kEightPiCubed * det);
+}
+
 }  // namespace
 
 double innerProduct(const GaussianMixture& f, const GaussianMixture& g) {
+  const auto& a = f.components();
+  const auto& b = g.components();
   double sum = 0.0;
-  for (const Gaussian& a : f.components()) {
-    for (const Gaussian& b : g.components()) {
-      // Means farther apart than sqrt(60 trace(S)) are at a squared Mahalanobis distance above
-      // 60 (trace >= largest eigenvalue): the term is below e^-30 of its peak. Skipping such
-      // pairs spares a scan-sized product most of its 3x3 factorisations.
-      const Eigen::Matrix3d s = a.covariance + b.covariance;
-      if ((a.mean - b.mean).squaredNorm() > 60.0 * s.trace()) continue;
-      const Eigen::LLT<Eigen::Matrix3d> llt(s);
-      sum += a.weight * b.weight * std::exp(logGaussian(a.mean, b.mean, llt.matrixL()));
+  if (&f == &g) {  // symmetric: each pair once
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      sum += gaussianProduct(a[i], a[i]);
+      for (std::size_t j = i + 1; j < a.size(); ++j) sum += 2.0 * gaussianProduct(a[i], a[j]);
     }
+    return sum;
+  }
+  for (const Gaussian& x : a) {
+    for (const Gaussian& y : b) sum += gaussianProduct(x, y);
   }
   return sum;
 }
@@ -58,6 +81,8 @@ GaussianMixture::GaussianMixture(std::vector<Gaussian> components)
       throw std::invalid_argument(name + ": covariance is not positive definite");
     }
     cholesky_.push_back(llt.matrixL());
+    inverse_cholesky_.push_back(
+        cholesky_.back().triangularView<Eigen::Lower>().solve(Eigen::Matrix3d::Identity()));
     log_normaliser_.push_back(std::log(g.weight));
     total_weight_ += g.weight;
   }
@@ -81,12 +106,14 @@ double GaussianMixture::logDensity(const Eigen::Vector3d& x) const {
 Eigen::MatrixXd GaussianMixture::logComponentDensities(const Points& points) const {
   Eigen::MatrixXd out(static_cast<Eigen::Index>(size()), points.cols());
   for (std::size_t k = 0; k < size(); ++k) {
-    const Points z =
-        cholesky_[k].triangularView<Eigen::Lower>().solve(points.colwise() - components_[k].mean);
-    out.row(static_cast<Eigen::Index>(k)) =
-        (log_normaliser_[k] - 1.5 * kLog2Pi - std::log(cholesky_[k].diagonal().prod()) -
-         0.5 * z.colwise().squaredNorm().array())
-            .matrix();
+    const Eigen::Index row = static_cast<Eigen::Index>(k);
+    const double constant =
+        log_normaliser_[k] - 1.5 * kLog2Pi - std::log(cholesky_[k].diagonal().prod());
+    const Eigen::Matrix3d& inverse = inverse_cholesky_[k];
+    const Eigen::Vector3d& mean = components_[k].mean;
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+      out(row, i) = constant - 0.5 * (inverse * (points.col(i) - mean)).squaredNorm();
+    }
   }
   return out;
 }
@@ -96,9 +123,33 @@ double GaussianMixture::meanLogLikelihood(const Points& points) const {
   if (empty()) return -std::numeric_limits<double>::infinity();
   // log-sum-exp over the components, all points at once (the hierarchy's split test calls this
   // for every node).
-  const Eigen::MatrixXd log_density = logComponentDensities(points);
-  const Eigen::RowVectorXd peak = log_density.colwise().maxCoeff();
-  return (peak.array() + (log_density.rowwise() - peak).array().exp().colwise().sum().log()).mean();
+  return logSumExpColumns(logComponentDensities(points)).mean();
+}
+
+Eigen::RowVectorXd logSumExpColumns(const Eigen::MatrixXd& log_values) {
+  Eigen::RowVectorXd out(log_values.cols());
+  for (Eigen::Index i = 0; i < log_values.cols(); ++i) {
+    const double peak = log_values.col(i).maxCoeff();
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < log_values.rows(); ++k) {
+      const double v = log_values(k, i) - peak;
+      if (v > kNegligibleLog) sum += std::exp(v);
+    }
+    out(i) = peak + std::log(sum);
+  }
+  return out;
+}
+
+Eigen::MatrixXd normalisedExp(const Eigen::MatrixXd& log_values,
+                              const Eigen::RowVectorXd& column_log_sums) {
+  Eigen::MatrixXd out(log_values.rows(), log_values.cols());
+  for (Eigen::Index i = 0; i < log_values.cols(); ++i) {
+    for (Eigen::Index k = 0; k < log_values.rows(); ++k) {
+      const double v = log_values(k, i) - column_log_sums(i);
+      out(k, i) = v > kNegligibleLog ? std::exp(v) : 0.0;
+    }
+  }
+  return out;
 }
 
 Points GaussianMixture::sample(std::size_t n, std::mt19937_64& rng, double max_mahalanobis2,

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <functional>
 
+#include <Eigen/Cholesky>
+
 #include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/hgmm/em_fitter.h"
 
@@ -20,6 +22,19 @@ Points select(const Points& points, const std::vector<int>& labels, int label) {
     out.col(static_cast<Eigen::Index>(i)) = points.col(kept[i]);
   }
   return out;
+}
+
+/// Mean log-likelihood of `points` under their own maximum-likelihood Gaussian with the
+/// covariance floor, in closed form: -(3 ln 2pi + ln|S + fI| + tr((S + fI)^-1 S)) / 2 for the
+/// points' scatter S (what EM with one component converges to, without iterating).
+double oneGaussianMeanLogLikelihood(const Points& points, double floor_m2) {
+  const Eigen::Vector3d mean = points.rowwise().mean();
+  const Points centred = points.colwise() - mean;
+  const Eigen::Matrix3d scatter = centred * centred.transpose() / double(points.cols());
+  const Eigen::Matrix3d covariance = scatter + floor_m2 * Eigen::Matrix3d::Identity();
+  const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
+  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  return -0.5 * (3.0 * std::log(2.0 * M_PI) + log_det + llt.solve(scatter).trace());
 }
 
 /// Parameters of a mixture of `k` full-covariance 3D Gaussians (weights sum to one).
@@ -51,12 +66,9 @@ Hgmm Hgmm::build(const Points& points, const HgmmParams& params) {
           em.seed = params.em.seed + static_cast<std::uint64_t>(index) + 1;
           const EmFit children = fitGaussianMixture(own, em);
           if (children.mixture.size() < 2) continue;
-          EmParams one = em;
-          one.components = 1;
-          const GaussianMixture alone = fitGaussianMixture(own, one).mixture;
           const double n = static_cast<double>(own.cols());
-          const double gain =
-              n * (children.mixture.meanLogLikelihood(own) - alone.meanLogLikelihood(own));
+          const double gain = n * (children.mean_log_likelihood -
+                                   oneGaussianMeanLogLikelihood(own, em.covariance_floor_m2));
           const double extra = parameterCount(children.mixture.size()) - parameterCount(1);
           if (2.0 * gain <= extra * std::log(n)) continue;
           add(children, own, index, depth + 1, node.gaussian.weight);

@@ -18,6 +18,8 @@ struct EmFit {
   std::vector<double> log_likelihoods;
   /// Each point's most likely component of `mixture`.
   std::vector<int> labels;
+  /// Mean log-likelihood of all the points under `mixture` (computed with the labels).
+  double mean_log_likelihood = 0.0;
 };
 
 /// Throws std::invalid_argument for invalid params or no points.

@@ -54,10 +54,21 @@ class GaussianMixture {
 
  private:
   std::vector<Gaussian> components_;
-  std::vector<Eigen::Matrix3d> cholesky_;  // lower factors L
-  std::vector<double> log_normaliser_;     // log w_k
+  std::vector<Eigen::Matrix3d> cholesky_;          // lower factors L
+  std::vector<Eigen::Matrix3d> inverse_cholesky_;  // L^-1: a 3x3 product per cloud, not a solve
+  std::vector<double> log_normaliser_;             // log w_k
   double total_weight_ = 0.0;
 };
+
+/// log sum_k exp(v_ki) of each column i, terms below the double's epsilon times the column's
+/// largest left out: they change no digit, and skipping them spares most of the exponentials (a
+/// point belongs to one or two of a mixture's components).
+Eigen::RowVectorXd logSumExpColumns(const Eigen::MatrixXd& log_values);
+
+/// exp(v_ki - column_log_sums_i), 0 where that is below the double's epsilon: EM's
+/// responsibilities.
+Eigen::MatrixXd normalisedExp(const Eigen::MatrixXd& log_values,
+                              const Eigen::RowVectorXd& column_log_sums);
 
 /// Closed-form L2 distance between densities, integral (f - g)^2, from Gaussian products:
 /// sum_ij a_i a_j N(mu_i; mu_j, S_i + S_j) - 2 sum_ij a_i b_j N(mu_i; nu_j, S_i + T_j) +
