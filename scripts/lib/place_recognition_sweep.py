@@ -46,8 +46,13 @@ def evaluate(args, eval_flags, seed):
     return json.load(open(result))
 
 
+def evaluated(results):
+    """The methods every result has (eval_place_recognition's --methods may pick a few)."""
+    return [m for m in METHODS if all(m in r["methods"] for _, r in results)]
+
+
 def table(results):
-    methods = list(METHODS)
+    methods = evaluated(results)
     lines = ["| seed | overlapping | best-ranked TP/FP | verified TP/FP (precision, recall) "
              "| after the team-frame EM | recall@1 | recall@5 | AP best-ranked | AP verified |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -74,7 +79,8 @@ def table(results):
 def plot(results, path):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for seed, r in results:
-        for m, color in METHODS.items():
+        for m in evaluated(results):
+            color = METHODS[m]
             for ax, key in zip(axes, ["pr_best_ranked", "pr_verified"]):
                 points = r["methods"][m][key]["recall_precision"]
                 ax.plot([p[0] for p in points], [p[1] for p in points], color=color, alpha=0.6,
