@@ -47,18 +47,32 @@ double gaussianProduct(const Gaussian& a, const Gaussian& b) {
 }  // namespace
 
 double innerProduct(const GaussianMixture& f, const GaussianMixture& g) {
-  const auto& a = f.components();
+  // gaussianProduct's distance gate for one component against all of g at once, on packed
+  // arrays (vectorised): of a scan's ~360 k pairs about 10 % pass it, so the gate is the cost.
   const auto& b = g.components();
-  double sum = 0.0;
-  if (&f == &g) {  // symmetric: each pair once
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      sum += gaussianProduct(a[i], a[i]);
-      for (std::size_t j = i + 1; j < a.size(); ++j) sum += 2.0 * gaussianProduct(a[i], a[j]);
-    }
-    return sum;
+  const Eigen::Index n = static_cast<Eigen::Index>(b.size());
+  Eigen::Array3Xd means(3, n);
+  Eigen::ArrayXd traces(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    means.col(j) = b[std::size_t(j)].mean.array();
+    traces(j) = b[std::size_t(j)].covariance.trace();
   }
-  for (const Gaussian& x : a) {
-    for (const Gaussian& y : b) sum += gaussianProduct(x, y);
+  const bool same = &f == &g;  // symmetric: each pair once
+  double sum = 0.0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const Gaussian& x = f.components()[i];
+    const Eigen::Index first = same ? Eigen::Index(i) + 1 : 0;
+    const Eigen::ArrayXd margin = (means.rightCols(n - first).colwise() - x.mean.array())
+                                      .square()
+                                      .colwise()
+                                      .sum()
+                                      .transpose() -
+                                  60.0 * (traces.tail(n - first) + x.covariance.trace());
+    if (same) sum += gaussianProduct(x, x);
+    for (Eigen::Index j = 0; j < margin.size(); ++j) {
+      if (margin(j) <= 0.0)
+        sum += (same ? 2.0 : 1.0) * gaussianProduct(x, b[std::size_t(first + j)]);
+    }
   }
   return sum;
 }
