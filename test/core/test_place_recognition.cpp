@@ -254,6 +254,16 @@ TEST(Vocabulary, KMeansFindsBlobsQuantizesAndRoundTrips) {
     corrupt.write("\x7f\x7f\x7f\x7f", 4);
   }
   EXPECT_THROW(Vocabulary::load(path.string()), std::runtime_error);  // hash mismatch
+  // Regression (fuzz_vocabulary): a header announcing millions of words is refused, not
+  // allocated.
+  std::ofstream(path, std::ios::binary) << "ccir_mapping vocabulary 1 3794782 0123\n"
+                                        << "words";
+  try {
+    Vocabulary::load(path.string());
+    ADD_FAILURE() << "a vocabulary of 3794782 words in 5 bytes was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+  }
   EXPECT_THROW(Vocabulary::load("/nonexistent"), std::runtime_error);
   EXPECT_THROW(Vocabulary::train(descriptors, 500), std::invalid_argument);
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 #include <rosbag/bag.h>
@@ -98,6 +99,50 @@ TEST(VelodynePcapReader, MissingFilesAndUnknownModelsAreClearErrors) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent.pcap"), std::string::npos);
   }
   EXPECT_THROW(VelodynePcapReader("/nonexistent.pcap", "VLP99", 0), std::invalid_argument);
+}
+
+/// The global header and the first `records` records of velodyne_vlp16.pcap, then half of the
+/// next one, as a file.
+fs::path cutCapture(int records) {
+  std::ifstream in(capture("velodyne_vlp16.pcap"), std::ios::binary);
+  std::vector<char> bytes(24);
+  in.read(bytes.data(), 24);
+  for (int record = 0; record <= records; ++record) {
+    std::array<char, 16> header;
+    in.read(header.data(), 16);
+    const std::uint32_t length = std::uint8_t(header[8]) | std::uint8_t(header[9]) << 8 |
+                                 std::uint8_t(header[10]) << 16 | std::uint32_t(header[11]) << 24;
+    std::vector<char> body(length);
+    in.read(body.data(), length);
+    bytes.insert(bytes.end(), header.begin(), header.end());
+    bytes.insert(bytes.end(), body.begin(),
+                 body.begin() + (record < records ? length : length / 2));
+  }
+  const fs::path cut =
+      fs::temp_directory_path() / ("ccir_cut_" + std::to_string(records) + ".pcap");
+  std::ofstream(cut, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  return cut;
+}
+
+TEST(VelodynePcapReader, CutCapturesGiveTheirRotationsOrAClearErrorNeverHang) {
+  SKIP_WITHOUT("velodyne_vlp16.pcap");
+  // Cut after 90 of its 100 records: MRPT ends there, after the whole rotations.
+  const fs::path late = cutCapture(90);
+  std::size_t rotations = 0;
+  for (VelodynePcapReader reader(late.string(), "VLP16", 0); reader.next();) ++rotations;
+  EXPECT_GE(rotations, 1U);
+  // Regression (fuzz_pcap_reader): cut in its first record, MRPT's reader retried it forever.
+  const fs::path early = cutCapture(0);
+  VelodynePcapReader reader(early.string(), "VLP16", 0);
+  try {
+    reader.next();
+    ADD_FAILURE() << "a capture cut in its first record read as complete";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(early.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+  }
+  fs::remove(late);
+  fs::remove(early);
 }
 
 int run(const std::string& arguments, std::string* output) {

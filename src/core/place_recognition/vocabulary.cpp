@@ -111,6 +111,16 @@ Vocabulary Vocabulary::load(const std::string& path) {
       kind != "vocabulary" || version != 1 || count == 0) {
     throw std::runtime_error(path + " is not a ccir_mapping vocabulary (version 1)");
   }
+  // The words follow the header: a count the file cannot hold is refused before allocating
+  // (a corrupt header asked for gigabytes; found by fuzz_vocabulary).
+  const std::streampos words_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const auto available = static_cast<std::size_t>(in.tellg() - words_start);
+  in.seekg(words_start);
+  if (count > available / sizeof(SpinImage)) {
+    throw std::runtime_error(path + ": truncated (" + std::to_string(count) + " words in " +
+                             std::to_string(available) + " bytes)");
+  }
   std::vector<SpinImage> words(count);
   in.read(reinterpret_cast<char*>(words.front().data()),
           static_cast<std::streamsize>(count * sizeof(SpinImage)));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -61,11 +62,21 @@ VelodynePcapReader::VelodynePcapReader(const std::string& pcap_file, const std::
 VelodynePcapReader::~VelodynePcapReader() = default;
 
 std::optional<LidarScan> VelodynePcapReader::next() {
-  while (true) {
+  // MRPT's reader does not end on a truncated record: it reports the read error and is asked
+  // again, forever (found by fuzz_pcap_reader). A rotation takes ~75 packets on a VLP-16 and
+  // ~350 on an HDL-64, so this many reads without one mean the capture is broken.
+  constexpr int kMaxReadsWithoutRotation = 1000;
+  for (int reads = 0;; ++reads) {
+    if (reads == kMaxReadsWithoutRotation) {
+      throw std::runtime_error(file_ + ": no rotation in " + std::to_string(reads) +
+                               " packet reads after " + std::to_string(rotations_) +
+                               " rotation(s): the capture is truncated or not a Velodyne's");
+    }
     mrpt::obs::CObservationVelodyneScan::Ptr observation;
     mrpt::obs::CObservationGPS::Ptr gps;
     if (!scanner_->getNextObservation(observation, gps)) return std::nullopt;  // end of file
     if (!observation || observation->scan_packets.empty()) continue;
+    ++rotations_;
 
     // The packet clock counts microseconds within the hour: stamp relative to the first scan.
     const std::uint32_t packet_us = observation->scan_packets.front().gps_timestamp();

@@ -27,7 +27,9 @@ class VelodynePcapReader {
   ~VelodynePcapReader();
 
   /// The next rotation (x y z intensity ring time, dropped no-returns), or nullopt at the end
-  /// of the file. A capture starting mid-rotation yields that partial rotation first.
+  /// of the file. A capture starting mid-rotation yields that partial rotation first. Throws
+  /// std::runtime_error naming the file when it breaks off in a truncated packet record (the
+  /// rotations before it have been returned).
   std::optional<LidarScan> next();
 
   /// Rings of the model (16 for a VLP-16).
@@ -41,6 +43,7 @@ class VelodynePcapReader {
   /// Ring (0 = lowest elevation) of each laser id, from the model's calibration.
   std::map<int, std::uint16_t> ring_of_laser_;
   std::optional<std::uint32_t> first_packet_us_;
+  std::size_t rotations_ = 0;
 };
 
 }  // namespace ccir_mapping::core::velodyne
