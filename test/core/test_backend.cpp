@@ -442,6 +442,14 @@ TEST(G2o, QuaternionInformationIsScaledToRotationVectorUnitsAndChainedWithoutVer
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find(":2:"), std::string::npos) << e.what();
   }
+  // Regression (fuzz_g2o_reader): one vertex numbered 113395852 made an index of that many.
+  std::ofstream(path) << "VERTEX_SE2 113395852 0 0 1\n";
+  try {
+    readG2o(path.string());
+    ADD_FAILURE() << "a lone vertex 113395852 was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not 0..113395852"), std::string::npos) << e.what();
+  }
   std::filesystem::remove(path);
 }
 

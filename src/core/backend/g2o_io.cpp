@@ -168,10 +168,12 @@ PoseGraph readG2o(const std::string& path) {
     if (count > std::uint64_t(std::numeric_limits<int>::max())) {
       throw std::runtime_error(path + ": vertex id " + std::to_string(count - 1) + " too large");
     }
-    for (std::uint64_t id = 0; id < count; ++id) index.emplace(id, static_cast<int>(id));
-    if (!vertices.empty() && vertices.size() != count) {
+    // Checked before the index is made: one vertex numbered in the millions made as many
+    // entries (found by fuzz_g2o_reader).
+    if (ids.size() != count || (!vertices.empty() && vertices.size() != count)) {
       throw std::runtime_error(path + ": vertex ids are not 0.." + std::to_string(count - 1));
     }
+    for (const std::uint64_t id : ids) index.emplace(id, static_cast<int>(id));
   }
   // Odometry: every plain edge when there are switchable ones (Vertigo's convention, and that of
   // an exported team graph, whose teammates' keyframe ids are not consecutive); otherwise the
