@@ -241,6 +241,7 @@ void load(ParamReader& reader, BridgeSettings& config) {
   load(reader, config.frames);
   auto& p = config.core;
   reader.read("listen_port", p.listen_port);
+  reader.read("listen_address", p.listen_address);
   reader.read("team_key", p.team_key);
   reader.read("budget_bytes_per_s", p.budget_bytes_per_s);
   reader.read("total_budget_bytes_per_s", p.total_budget_bytes_per_s);

@@ -297,6 +297,11 @@ TEST(BridgeNetwork, APortInUseIsAnErrorNamingTheParameter) {
   EXPECT_THROW(Bridge(BridgeParams{params(0, "robot_a", 1)}, "robot_a", nullptr, nullptr),
                std::invalid_argument)
       << "a peer named like this robot";
+  BridgeParams anywhere = params(0, "robot_b", 1);
+  anywhere.listen_address = "radio0";
+  ASSERT_EQ(anywhere.validate("robot_a").size(), 1U);
+  EXPECT_NE(anywhere.validate("robot_a")[0].find("listen_address 'radio0'"), std::string::npos);
+  EXPECT_TRUE(BridgeParams{}.validate("robot_a").empty()) << "the defaults are valid";
 }
 
 }  // namespace

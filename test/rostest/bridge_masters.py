@@ -167,7 +167,8 @@ class BridgeMasters(Processes, unittest.TestCase):
                 peers.append("{name: %s, host: %s, port: %d}" % (other, address, port))
             config = os.path.join(self.dir, robot + ".yaml")
             with open(config, "w") as f:
-                f.write("bridge:\n  listen_port: %d\n  team_key: %s\n  budget_bytes_per_s: %f\n"
+                f.write("bridge:\n  listen_port: %d\n  listen_address: 0.0.0.0\n"
+                        "  team_key: %s\n  budget_bytes_per_s: %f\n"
                         "  total_budget_bytes_per_s: %f\n  burst_bytes: %d\n"
                         "  reconnect_min_s: 0.2\n  reconnect_max_s: 1.0\n  peer_timeout_s: 5.0\n"
                         "  peers: [%s]\n"

@@ -28,10 +28,11 @@ BridgeConnections::BridgeConnections(BridgeContext& context, BridgePump& pump)
 
 void BridgeConnections::listen() {
   const int port = context_.params.listen_port;
-  if (const auto ec =
-          transport::listen(acceptor_, {tcp::v4(), static_cast<unsigned short>(port)})) {
-    throw std::runtime_error("cannot listen on listen_port " + std::to_string(port) + ": " +
-                             ec.message());
+  const std::string& address = context_.params.listen_address;  // validated
+  if (const auto ec = transport::listen(
+          acceptor_, {boost::asio::ip::make_address(address), static_cast<unsigned short>(port)})) {
+    throw std::runtime_error("cannot listen on listen_address " + address + " listen_port " +
+                             std::to_string(port) + ": " + ec.message());
   }
   accept();
 }

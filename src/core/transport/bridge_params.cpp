@@ -2,6 +2,8 @@
 
 #include <set>
 
+#include <boost/asio/ip/address.hpp>
+
 #include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/transport/frame_codec.h"
 
@@ -26,6 +28,10 @@ std::optional<QueuePolicy> parseQueuePolicy(std::string_view text) {
 std::vector<std::string> BridgeParams::validate(const std::string& own_robot_name) const {
   ParamCheck check;
   check.inRange("listen_port", listen_port, 0, 65535);
+  boost::system::error_code bad_address;
+  boost::asio::ip::make_address(listen_address, bad_address);
+  check.require(!bad_address, "listen_address '" + listen_address +
+                                  "' is not an IPv4 or IPv6 address (e.g. 10.0.0.1, 0.0.0.0)");
   check.inRange("budget_bytes_per_s", budget_bytes_per_s, 1000.0, 1e9);
   check.inRange("total_budget_bytes_per_s", total_budget_bytes_per_s, 1000.0, 1e9);
   check.inRange("max_message_bytes", max_message_bytes, 1024, 1 << 30);

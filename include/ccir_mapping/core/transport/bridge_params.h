@@ -49,6 +49,10 @@ struct ForwardedTopic {
 struct BridgeParams {
   /// TCP port this bridge accepts peers on; 0 = accept none (only connect out).
   int listen_port = 0;
+  /// The local address it listens on: loopback unless the user names the radio's interface
+  /// (or 0.0.0.0 for every interface), so that a robot is not reachable from every network it
+  /// joins by default.
+  std::string listen_address = "127.0.0.1";
   /// Shared secret of the team: frames are authenticated with it (HMAC-SHA256).
   std::string team_key;
   std::vector<PeerConfig> peers;
