@@ -38,7 +38,7 @@ std::vector<std::uint8_t> honestStart() {
   const auto map = sender.addTopic(topic("inbox/map", true, true, false), 0.0);
   const auto stats = sender.addTopic(topic("inbox/stats", false, false, false), 0.0);
   sender.connected(0.0);
-  sender.send(scans, std::vector<std::uint8_t>(3000, 7), 0.0);
+  sender.send(scans, std::vector<std::uint8_t>(600, 7), 0.0);
   sender.send(map, {1, 2, 3}, 0.0);
   sender.send(stats, {4, 5}, 0.0);
   return sender.output(10.0);
@@ -58,7 +58,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::vector<transport::InboxMessage> inbox;
   double now_s = 0.0;
   bool open = receiver.input(start.data(), start.size(), now_s, inbox);
-  while (open && input.remaining_bytes() > 0) {
+  for (int step = 0; open && step < 32 && input.remaining_bytes() > 0; ++step) {
     now_s += 0.01;
     std::vector<std::uint8_t> bytes;
     switch (input.ConsumeIntegralInRange<int>(0, 4)) {
