@@ -133,6 +133,12 @@ TEST(ScanCodec, RefusesMalformedInputByReasonAndNeverCrashes) {
   other[0] = 99;
   EXPECT_FALSE(decodeScan(reencode(other), 500, &error));
   EXPECT_EQ(error, "unknown encoding version");
+  // Regression (fuzz_scan_decoding): a step of -2^63 mm overflowed the position's sum.
+  std::vector<std::uint8_t> far = {raw[0], 1};  // the version, one point
+  far.insert(far.end(), 9, 0xff);
+  far.push_back(0x01);  // varint 2^64 - 1: zigzag of -2^63
+  EXPECT_FALSE(decodeScan(reencode(far), 500, &error));
+  EXPECT_EQ(error, "a position beyond 1000 km");
 
   // Random corruption of the raw contents: refused or decoded to at most 500 points, never
   // a crash.

@@ -659,7 +659,12 @@ TEST(PeerSession, KeepAliveIsHeardAndOversizedMessagesAreNotSent) {
   a.send(scans, std::vector<std::uint8_t>(1001, 1), 0.0);
   EXPECT_EQ(a.sessionCounters().dropped_too_large, 1U);
   std::vector<InboxMessage> inbox;
-  auto bytes = a.output(0.0);
+  auto bytes = a.output(0.0);  // its HELLO, alone until b's has come
+  EXPECT_EQ(bytes.size(), wireBytes(8 + kNonceBytes + 7));
+  ASSERT_TRUE(b.input(bytes.data(), bytes.size(), 0.0, inbox));
+  bytes = b.output(0.0);
+  ASSERT_TRUE(a.input(bytes.data(), bytes.size(), 0.0, inbox));
+  bytes = a.output(0.0);  // the topic announcement, under the connection's key
   ASSERT_TRUE(b.input(bytes.data(), bytes.size(), 0.0, inbox));
   EXPECT_EQ(b.sessionCounters().last_heard_s, 0.0);
   a.keepAlive(5.0);
@@ -671,6 +676,43 @@ TEST(PeerSession, KeepAliveIsHeardAndOversizedMessagesAreNotSent) {
   a.disconnected();
   a.keepAlive(6.0);
   EXPECT_TRUE(a.output(6.0).empty());
+}
+
+TEST(PeerSession, ARecordedConnectionReplayedLaterIsRefusedAndChangesNothing) {
+  Pair link;
+  const std::uint16_t scans = link.a.addTopic(scanTopic(), 0.0);
+  link.a.connected(0.0);
+  link.b.connected(0.0);
+  // What an eavesdropper records of a's side of a connection: HELLO, announcement, a message.
+  std::vector<std::uint8_t> recorded;
+  link.a.send(scans, {1, 2, 3}, 0.0);
+  for (double t = 0.0; t < 1.0; t += 0.01) {
+    const auto ab = link.a.output(t);
+    recorded.insert(recorded.end(), ab.begin(), ab.end());
+    ASSERT_TRUE(link.b.input(ab.data(), ab.size(), t, link.at_b));
+    const auto ba = link.b.output(t);
+    ASSERT_TRUE(link.a.input(ba.data(), ba.size(), t, link.at_a));
+  }
+  ASSERT_EQ(link.at_b.size(), 1U);
+  // Played to b on a new connection: the HELLO is the team's, the frames after it are not this
+  // connection's.
+  link.b.connected(2.0);
+  std::vector<InboxMessage> replayed;
+  EXPECT_FALSE(link.b.input(recorded.data(), recorded.size(), 2.0, replayed));
+  EXPECT_EQ(link.b.reason(), "bad mac");
+  EXPECT_TRUE(replayed.empty());
+  // The honest a on the next connection: its next message arrives once, the old one not again.
+  link.a.connected(3.0);
+  link.b.connected(3.0);
+  link.a.send(scans, {4}, 3.0);
+  for (double t = 3.0; t < 4.0; t += 0.01) link.step(t, true, true);
+  ASSERT_TRUE(link.ok);
+  ASSERT_EQ(link.at_b.size(), 2U);
+  EXPECT_EQ(link.at_b[1].bytes, std::vector<std::uint8_t>{4});
+  // A second HELLO on a connection is refused too.
+  const Frame hello{FrameType::kHello, 0, 0, 0, 0, 1, encodeHello({"robot_a", 1, {}})};
+  const auto bytes = encodeFrame(hello, kKey);
+  EXPECT_FALSE(link.b.input(bytes.data(), bytes.size(), 4.0, link.at_b));
 }
 
 TEST(InboxPublishers, ANewTopicHoldsItsFirstMessagesAndRefusesAnotherType) {

@@ -143,6 +143,21 @@ TEST(VelodynePcapReader, CutCapturesGiveTheirRotationsOrAClearErrorNeverHang) {
   }
   fs::remove(late);
   fs::remove(early);
+  // Regression (fuzz_pcap_reader): libpcap crashed on a header with a nonsense link type; such
+  // files, and files too short for a header, never reach it.
+  const fs::path bad = fs::temp_directory_path() / "ccir_bad_link_type.pcap";
+  const std::uint8_t header[24] = {0xd4, 0xc3, 0xb2, 0xa1, 2, 0, 4, 0, 0,    0,    0,    0,
+                                   0,    0,    0,    0,    0, 0, 1, 0, 0x00, 0x00, 0xb1, 0xb4};
+  std::ofstream(bad, std::ios::binary).write(reinterpret_cast<const char*>(header), 24);
+  try {
+    VelodynePcapReader reader(bad.string(), "VLP16", 0);
+    ADD_FAILURE() << "a capture of link type 0xb4b10000 was opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not Ethernet"), std::string::npos) << e.what();
+  }
+  std::ofstream(bad, std::ios::binary | std::ios::trunc).write("\xd4\xc3", 2);
+  EXPECT_THROW(VelodynePcapReader(bad.string(), "VLP16", 0), std::runtime_error);
+  fs::remove(bad);
 }
 
 int run(const std::string& arguments, std::string* output) {

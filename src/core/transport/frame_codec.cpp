@@ -1,16 +1,19 @@
 #include "ccir_mapping/core/transport/frame_codec.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
 #include <openssl/hmac.h>
+#include <openssl/rand.h>
 
 namespace ccir_mapping::core::transport {
 namespace {
 
 constexpr std::uint8_t kMagic[4] = {'C', 'C', 'I', 'R'};
-constexpr std::uint8_t kVersion = 1;
+// 2: HELLO carries a nonce and later frames are keyed by the connection (linkKey).
+constexpr std::uint8_t kVersion = 2;
 
 void put(std::vector<std::uint8_t>& out, std::uint64_t value, int bytes) {
   for (int i = 0; i < bytes; ++i) out.push_back(static_cast<std::uint8_t>(value >> (8 * i)));
@@ -29,6 +32,23 @@ void mac(const std::string& key, const std::uint8_t* data, std::size_t size,
 }
 
 }  // namespace
+
+Nonce drawNonce() {
+  Nonce nonce;
+  if (RAND_bytes(nonce.data(), static_cast<int>(nonce.size())) != 1) {
+    throw std::runtime_error("OpenSSL could not draw a nonce");
+  }
+  return nonce;
+}
+
+std::string linkKey(const std::string& team_key, const Nonce& sender, const Nonce& receiver) {
+  std::uint8_t both[2 * kNonceBytes];
+  std::copy(sender.begin(), sender.end(), both);
+  std::copy(receiver.begin(), receiver.end(), both + kNonceBytes);
+  std::uint8_t key[kFrameMacBytes];
+  mac(team_key, both, sizeof(both), key);
+  return std::string(reinterpret_cast<const char*>(key), kFrameMacBytes);
+}
 
 bool Frame::operator==(const Frame& o) const {
   return type == o.type && flags == o.flags && topic == o.topic && sequence == o.sequence &&

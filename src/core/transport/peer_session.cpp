@@ -63,18 +63,22 @@ std::uint64_t getU64(const std::vector<std::uint8_t>& in, std::size_t at) {
 
 }  // namespace
 
-// HELLO payload: the incarnation (8 bytes) and the robot name.
+// HELLO payload: the incarnation (8 bytes), the connection's nonce and the robot name.
 std::vector<std::uint8_t> encodeHello(const Hello& hello) {
   std::vector<std::uint8_t> out;
   for (int i = 0; i < 8; ++i)
     out.push_back(static_cast<std::uint8_t>(hello.incarnation >> (8 * i)));
+  out.insert(out.end(), hello.nonce.begin(), hello.nonce.end());
   out.insert(out.end(), hello.robot.begin(), hello.robot.end());
   return out;
 }
 
 std::optional<Hello> decodeHello(const std::vector<std::uint8_t>& payload) {
-  if (payload.size() <= 8 || payload.size() > 8 + 255) return std::nullopt;
-  return Hello{std::string(payload.begin() + 8, payload.end()), getU64(payload, 0)};
+  constexpr std::size_t kFixed = 8 + kNonceBytes;
+  if (payload.size() <= kFixed || payload.size() > kFixed + 255) return std::nullopt;
+  Hello hello{std::string(payload.begin() + kFixed, payload.end()), getU64(payload, 0), {}};
+  std::copy(payload.begin() + 8, payload.begin() + kFixed, hello.nonce.begin());
+  return hello;
 }
 
 PeerSession::PeerSession(std::string own_robot, std::string peer_robot, std::string team_key,
@@ -136,8 +140,12 @@ void PeerSession::connected(double now_s) {
   reassembler_ = Reassembler(params_.max_message_bytes, 64);
   peer_topics_.clear();
   peer_said_hello_ = false;
+  hello_sent_ = false;
+  out_key_.clear();
+  unconfirmed_hello_.reset();
   reason_.clear();
-  scheduler_.enqueue(kSessionTopic, encodeHello({own_, params_.incarnation}), now_s,
+  nonce_ = drawNonce();
+  scheduler_.enqueue(kSessionTopic, encodeHello({own_, params_.incarnation, nonce_}), now_s,
                      FrameType::kHello);
   connected_ = true;
   for (std::size_t i = 0; i < topics_.size(); ++i)
@@ -162,9 +170,12 @@ void PeerSession::keepAlive(double now_s) {
 std::vector<std::uint8_t> PeerSession::output(double now_s, std::size_t max_frames) {
   std::vector<std::uint8_t> bytes;
   for (std::size_t n = 0; n < max_frames; ++n) {
+    // Our HELLO (queued first on a new connection) goes alone until the peer's has come.
+    if (hello_sent_ && out_key_.empty()) break;
     const auto frame = scheduler_.next(now_s);
     if (!frame) break;
-    const auto encoded = encodeFrame(*frame, key_);
+    const auto encoded = encodeFrame(*frame, hello_sent_ ? out_key_ : key_);
+    hello_sent_ = true;
     bytes.insert(bytes.end(), encoded.begin(), encoded.end());
   }
   return bytes;
@@ -176,15 +187,25 @@ bool PeerSession::refuse(std::string reason) {
 }
 
 bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) {
+  if (peer_said_hello_) return refuse("a second HELLO");
   const auto hello = decodeHello(payload);
   if (!hello) return refuse("a malformed HELLO");
   if (hello->robot != peer_)
     return refuse("the peer says it is '" + hello->robot + "', not " + peer_);
   peer_said_hello_ = true;
-  const bool restarted = peer_incarnation_ != hello->incarnation;
+  decoder_.setKey(linkKey(key_, hello->nonce, nonce_));
+  out_key_ = linkKey(key_, nonce_, hello->nonce);
+  unconfirmed_hello_ = hello;
+  // A frame under the new key at once, so that the peer can take our HELLO as fresh.
+  scheduler_.enqueue(kSessionTopic, encodeAck(kSessionTopic, 0), now_s, FrameType::kAck);
+  return true;
+}
+
+void PeerSession::welcome(const Hello& hello, double now_s) {
+  const bool restarted = peer_incarnation_ != hello.incarnation;
   // A restarted peer's sequences start again.
   if (restarted && peer_incarnation_) filter_ = SequenceFilter();
-  peer_incarnation_ = hello->incarnation;
+  peer_incarnation_ = hello.incarnation;
   // The latest latched messages: reliable ones for a new peer process (unless waiting in the
   // outbox anyway), unreliable ones on every connection (they may have been lost with the last).
   for (auto& [topic, latest] : latched_) {
@@ -192,7 +213,6 @@ bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) 
         topics_[topic - 1].reliable ? restarted && !outbox_.pending(topic, latest.first) : true;
     if (resend) scheduler_.enqueue(topic, latest.second, now_s, FrameType::kData, latest.first);
   }
-  return true;
 }
 
 bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s,
@@ -205,6 +225,10 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
     counters_.last_heard_s = now_s;
     if (!peer_said_hello_ && frame->type != FrameType::kHello) {
       return refuse("the peer did not say HELLO first");
+    }
+    if (unconfirmed_hello_ && frame->type != FrameType::kHello) {
+      welcome(*unconfirmed_hello_, now_s);  // this frame passed the connection's key
+      unconfirmed_hello_.reset();
     }
     switch (frame->type) {
       case FrameType::kHello:

@@ -11,6 +11,8 @@ namespace {
 
 constexpr std::uint8_t kVersion = 1;
 constexpr double kMaxAbsM = 1e6;
+// The same bound in position steps (1 mm).
+constexpr std::int64_t kMaxAbsSteps = 1000000000;
 /// Bytes of one point: up to three varints of 5 bytes, three normals and an intensity.
 constexpr std::size_t kMaxPointBytes = 3 * 5 + 4;
 
@@ -123,7 +125,14 @@ std::optional<std::vector<ScanPoint>> decodeScan(const std::vector<std::uint8_t>
   for (ScanPoint& p : points) {
     float* xyz[] = {&p.x, &p.y, &p.z};
     for (int a = 0; a < 3; ++a) {
-      position[a] += unzigzag(in.varint());
+      // Steps between coordinates the encoder allows: anything else is refused before it can
+      // overflow the sum (found by fuzz_scan_decoding).
+      const std::int64_t step = unzigzag(in.varint());
+      if (step > 2 * kMaxAbsSteps || step < -2 * kMaxAbsSteps ||
+          std::abs(position[a] + step) > kMaxAbsSteps) {
+        return fail<std::vector<ScanPoint>>(error, "a position beyond 1000 km");
+      }
+      position[a] += step;
       *xyz[a] = static_cast<float>(position[a] * kScanPositionStepM);
     }
     if (!in.ok) return fail<std::vector<ScanPoint>>(error, "truncated positions");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -15,6 +16,41 @@ namespace ccir_mapping::core::velodyne {
 namespace {
 
 constexpr std::int64_t kMicrosecondsPerHour = 3600LL * 1000000LL;
+
+/// libpcap (through MRPT) crashed on a header with a nonsense link type (found by
+/// fuzz_pcap_reader): only classic pcap files of Ethernet frames, as Velodyne captures are,
+/// reach it.
+void checkCaptureHeader(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::uint8_t h[24];
+  if (!in.read(reinterpret_cast<char*>(h), sizeof(h))) {
+    throw std::runtime_error(file + ": too short for a pcap file header");
+  }
+  const auto little = [&](int at) {
+    return std::uint32_t(h[at]) | std::uint32_t(h[at + 1]) << 8 | std::uint32_t(h[at + 2]) << 16 |
+           std::uint32_t(h[at + 3]) << 24;
+  };
+  const auto swap = [](std::uint32_t v) {
+    return (v >> 24) | ((v >> 8) & 0xff00) | ((v << 8) & 0xff0000) | (v << 24);
+  };
+  const std::uint32_t magic = little(0);
+  const bool swapped = magic == 0xd4c3b2a1 || magic == 0x4d3cb2a1;
+  if (!swapped && magic != 0xa1b2c3d4 && magic != 0xa1b23c4d) {
+    throw std::runtime_error(file + ": not a pcap file (pcapng is not read: convert it with " +
+                             "editcap -F pcap)");
+  }
+  const auto field = [&](int at) { return swapped ? swap(little(at)) : little(at); };
+  constexpr std::uint32_t kEthernet = 1;         // DLT_EN10MB
+  constexpr std::uint32_t kMaxSnapLen = 262144;  // libpcap's own bound
+  if (field(20) != kEthernet) {
+    throw std::runtime_error(file + ": link type " + std::to_string(field(20)) +
+                             ", not Ethernet (1) as a Velodyne capture is");
+  }
+  if (field(16) == 0 || field(16) > kMaxSnapLen) {
+    throw std::runtime_error(file + ": snapshot length " + std::to_string(field(16)) +
+                             " is not a pcap file's");
+  }
+}
 
 }  // namespace
 
@@ -31,6 +67,7 @@ VelodynePcapReader::VelodynePcapReader(const std::string& pcap_file, const std::
   if (!std::filesystem::is_regular_file(pcap_file)) {
     throw std::runtime_error("cannot read the pcap file " + pcap_file);
   }
+  checkCaptureHeader(pcap_file);
   // pcap_read_fast only has a configuration key: read as fast as possible, once.
   mrpt::config::CConfigFileMemory config;
   config.write("velodyne", "model", model);

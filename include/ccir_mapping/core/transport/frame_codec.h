@@ -1,9 +1,12 @@
 // Frames on a bridge link (TCP): a fixed 28-byte header, the payload, and an HMAC-SHA256 of both
-// under the team key, so a peer without the key is refused at its first frame. The decoder
+// under the team key (the HELLO) or a key of the connection (every later frame: linkKey), so a
+// peer without the key is refused at its first frame and frames recorded from another
+// connection at their second. The decoder
 // reads the byte stream, checks every size before allocating, and stops at the first frame it
 // cannot trust: the link is then closed and the reason counted.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -52,6 +55,15 @@ const char* toString(FrameError error);
 /// Throws std::invalid_argument for a payload above 4 GiB or fragment >= fragments.
 std::vector<std::uint8_t> encodeFrame(const Frame& frame, const std::string& key);
 
+/// Bytes each side draws afresh for every connection and sends in its HELLO.
+constexpr std::size_t kNonceBytes = 16;
+using Nonce = std::array<std::uint8_t, kNonceBytes>;
+/// A fresh nonce from OpenSSL's generator.
+Nonce drawNonce();
+/// The key of one direction of one connection: HMAC-SHA256 under the team key of both sides'
+/// nonces, the sender's first. A frame recorded from another connection fails its MAC.
+std::string linkKey(const std::string& team_key, const Nonce& sender, const Nonce& receiver);
+
 class FrameDecoder {
  public:
   FrameDecoder(std::string key, std::size_t max_payload_bytes);
@@ -59,6 +71,8 @@ class FrameDecoder {
   void feed(const std::uint8_t* data, std::size_t size);
   /// The next complete frame, or nullopt when more bytes are needed or the stream failed.
   std::optional<Frame> next();
+  /// The key of the frames after the one next() returned last.
+  void setKey(std::string key) { key_ = std::move(key); }
   /// Why the stream failed (kNone while it is fine); once failed it stays failed.
   FrameError error() const { return error_; }
   /// Bytes received and not yet decoded.

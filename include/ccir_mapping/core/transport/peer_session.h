@@ -1,9 +1,13 @@
 // The bridge protocol with one peer, without sockets: messages in -> bytes to write, bytes read
 // -> messages out. The nodelet moves the bytes over TCP; tests wire two sessions back to back.
 //
-// On each connection both sides first send HELLO (their robot name and incarnation: a number
-// drawn at start-up) and announce their topics (TOPIC: name, type, md5, definition, latched,
-// reliable, compressed), then DATA. The receiver acknowledges reliable topics (ACK: highest
+// On each connection both sides first send HELLO (their robot name, their incarnation: a number
+// drawn at start-up, and a nonce drawn for this connection) under the team key, and nothing else
+// until the peer's HELLO has come: every later frame is authenticated with the connection's keys
+// (linkKey of both nonces), so frames recorded from another connection are refused, and a HELLO
+// takes effect (a new incarnation resets what was delivered) only once a frame under those keys
+// has followed it. Then they announce their topics (TOPIC: name, type, md5, definition, latched,
+// reliable, compressed) and send DATA. The receiver acknowledges reliable topics (ACK: highest
 // sequence delivered); what the peer has not acknowledged when a connection drops is sent again
 // on the next, and the receiver drops what it already delivered. A peer with a new incarnation
 // has restarted: its sequences start again, and it is sent the latest message of each latched
@@ -42,6 +46,7 @@ struct TopicInfo {
 struct Hello {
   std::string robot;
   std::uint64_t incarnation = 0;
+  Nonce nonce{};
 };
 std::vector<std::uint8_t> encodeHello(const Hello& hello);
 /// nullopt for a payload that is not a HELLO's.
@@ -123,8 +128,10 @@ class PeerSession {
 
   bool refuse(std::string reason);
   void announce(std::uint16_t id, double now_s);
-  /// A HELLO; false when it is refused.
+  /// A HELLO: checked, and the connection's keys derived; false when it is refused.
   bool greet(const std::vector<std::uint8_t>& payload, double now_s);
+  /// What the peer's HELLO means, once a frame under the connection's key proved it fresh.
+  void welcome(const Hello& hello, double now_s);
 
   std::string own_;
   std::string peer_;
@@ -142,6 +149,12 @@ class PeerSession {
   std::optional<std::uint64_t> peer_incarnation_;
   bool connected_ = false;
   bool peer_said_hello_ = false;
+  /// This connection's nonce, whether our HELLO is out, the key of what we send (empty until
+  /// the peer's HELLO), and the peer's HELLO until a frame under the connection's key follows.
+  Nonce nonce_{};
+  bool hello_sent_ = false;
+  std::string out_key_;
+  std::optional<Hello> unconfirmed_hello_;
   std::string reason_;
   SessionCounters counters_;
 };
