@@ -22,6 +22,12 @@ using core::team::TeamGraph;
 using Worker = core::team::TeamGraphWorker;
 
 class BackendNodelet final : public PipelineNodelet {
+ public:
+  ~BackendNodelet() override {
+    std::string message;
+    if (worker_ && settings_.save.on_shutdown) save(&message);
+  }
+
  private:
   void onInit() override {
     if (!loadSettings(settings_)) return;
@@ -54,14 +60,21 @@ class BackendNodelet final : public PipelineNodelet {
                                                         &BackendNodelet::onSaveGraph, this);
   }
 
+  /// After the optimisation under way, if any.
+  bool save(std::string* message) {
+    return saveFiles(
+        [this]() -> std::optional<std::vector<std::string>> {
+          std::vector<std::string> files;
+          if (!worker_->inspect([&](const TeamGraph& g) { files = g.save(settings_.save.dir); })) {
+            return std::nullopt;
+          }
+          return files;
+        },
+        message);
+  }
+
   bool onSaveGraph(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-    const std::string& path = settings_.graph_path;
-    try {  // waits for the optimisation under way, if any
-      response.success = worker_->inspect([&](const TeamGraph& graph) { graph.saveG2o(path); });
-      response.message = (response.success ? "saved " : "stopping: not saved ") + path;
-    } catch (const std::exception& e) {
-      response.message = e.what();
-    }
+    response.success = save(&response.message);
     return true;
   }
 

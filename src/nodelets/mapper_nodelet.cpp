@@ -2,7 +2,8 @@
 // the Backend's optimised poses (own and, from the team graph, teammates') by rebuilding
 // (core/information/map_stage.h). Publishes the
 // occupied voxels while someone listens and the map's entropy and known volume; saves the map on
-// ~save_map and at shutdown; shares it in-process with the Broker (core/information/shared_map.h).
+// ~save_map and at shutdown (save_dir); shares it in-process with the Broker
+// (core/information/shared_map.h).
 #include <nav_msgs/Path.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -22,7 +23,8 @@ namespace info = core::information;
 class MapperNodelet final : public PipelineNodelet {
  public:
   ~MapperNodelet() override {
-    if (stage_ && settings_.save_on_shutdown) save();
+    std::string message;
+    if (stage_ && settings_.save.on_shutdown) save(&message);
   }
 
  private:
@@ -116,19 +118,12 @@ class MapperNodelet final : public PipelineNodelet {
     publish(topics::kMapCloud, boost::shared_ptr<const sensor_msgs::PointCloud2>(cloud));
   }
 
-  bool save() {
-    const std::string& path = settings_.map_path;
-    if (stage_->save(path)) {
-      NODELET_INFO("map saved to %s", path.c_str());
-      return true;
-    }
-    NODELET_ERROR("could not write the map to %s (~map_path)", path.c_str());
-    return false;
+  bool save(std::string* message) {
+    return saveFiles([this] { return std::vector{stage_->save(settings_.save.dir)}; }, message);
   }
 
   bool onSave(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-    response.success = save();
-    response.message = (response.success ? "saved " : "could not write ") + settings_.map_path;
+    response.success = save(&response.message);
     return true;
   }
 

@@ -48,6 +48,26 @@ void PipelineNodelet::failConfiguration(const std::string& error) {
   config_errors_.push_back(error);
 }
 
+bool PipelineNodelet::saveFiles(
+    const std::function<std::optional<std::vector<std::string>>()>& write, std::string* message) {
+  try {
+    const auto files = write();
+    if (!files) {
+      *message = "stopping: not saved";
+      NODELET_WARN("%s", message->c_str());
+      return false;
+    }
+    *message = "saved";
+    for (const std::string& file : *files) *message += " " + file;
+    NODELET_INFO("%s", message->c_str());
+    return true;
+  } catch (const std::exception& e) {
+    *message = std::string(e.what()) + " (~save_dir)";
+    NODELET_ERROR("%s", message->c_str());
+    return false;
+  }
+}
+
 void PipelineNodelet::warnPerKind(const std::string& kind, const char* format, ...) {
   va_list args;
   va_start(args, format);

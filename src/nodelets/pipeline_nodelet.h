@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <cstdarg>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -65,6 +67,11 @@ class PipelineNodelet : public nodelet::Nodelet {
   /// A configuration error found after loadSettings (e.g. a file a parameter names): logs it as
   /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert.
   void failConfiguration(const std::string& error);
+
+  /// Runs `write` (returns the files it wrote, nullopt when it could not run, throws on an
+  /// error) and logs what happened, which `message` also says; true when it wrote.
+  bool saveFiles(const std::function<std::optional<std::vector<std::string>>()>& write,
+                 std::string* message);
 
   /// Subscribes `callback` to `topic` for the nodelet's lifetime, counting each message as the
   /// flow "in <topic>". The callback takes the message (const M&) or, to pass it on without a

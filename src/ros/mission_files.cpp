@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -16,6 +15,7 @@
 #include <yaml-cpp/yaml.h>
 #include <boost/make_shared.hpp>
 
+#include "ccir_mapping/core/common/tum_trajectory.h"
 #include "ccir_mapping/ros/conversions.h"
 
 namespace ccir_mapping::simulation_io {
@@ -42,7 +42,7 @@ boost::shared_ptr<ros::M_string> latchedConnection() {
 class BagSink : public core::simulation::RecordingSink {
  public:
   BagSink(const std::string& robot, bool planar, const std::string& prefix, rosbag::Bag* bag,
-          std::ofstream* ground_truth, RobotRecording* stats)
+          core::TumTrajectoryWriter* ground_truth, RobotRecording* stats)
       : odom_frame_(robot + "/odom"),
         base_frame_(robot + "/base_link"),
         sensor_frame_(robot + "/velodyne"),
@@ -84,11 +84,7 @@ class BagSink : public core::simulation::RecordingSink {
     truth.pose.pose = conversions::toPoseMsg(sample.truth);
     bag_->write(truth_topic_, stamp, truth);
 
-    const auto& p = truth.pose.pose.position;
-    const auto& q = truth.pose.pose.orientation;
-    *ground_truth_ << std::fixed << std::setprecision(9) << stamp.toSec() << std::setprecision(6)
-                   << ' ' << p.x << ' ' << p.y << ' ' << p.z << std::setprecision(9) << ' ' << q.x
-                   << ' ' << q.y << ' ' << q.z << ' ' << q.w << '\n';
+    ground_truth_->add(sample.stamp, sample.truth);
     ++stats_->odometry_messages;
   }
 
@@ -104,7 +100,7 @@ class BagSink : public core::simulation::RecordingSink {
   std::string points_topic_, odom_topic_, truth_topic_;
   bool planar_;
   rosbag::Bag* bag_;
-  std::ofstream* ground_truth_;
+  core::TumTrajectoryWriter* ground_truth_;
   RobotRecording* stats_;
   sensor_msgs::PointCloud2 cloud_;  // reused: its buffer is the largest allocation per scan
 };
@@ -155,10 +151,10 @@ RobotRecording writeRobotRecording(const Mission& mission, int index, const std:
   stats.bag_file = robotFile(dir, robot.name + ".bag");
   stats.ground_truth_file = robotFile(dir, robot.name + "_gt.txt");
 
-  std::ofstream ground_truth(stats.ground_truth_file);
-  if (!ground_truth) throw std::runtime_error("cannot write " + stats.ground_truth_file);
-  ground_truth << "# stamp x y z qx qy qz qw: true pose of " << robot.name << "/base_link in "
-               << robot.name << "/odom (its start pose; see mission.yaml for the world)\n";
+  core::TumTrajectoryWriter ground_truth(
+      stats.ground_truth_file, "stamp x y z qx qy qz qw: true pose of " + robot.name +
+                                   "/base_link in " + robot.name +
+                                   "/odom (its start pose; see mission.yaml for the world)");
 
   // A bag loads its encryptor plugin when opened and unloads it when destroyed; pluginlib is not
   // thread-safe, so robots recorded in parallel take turns for both.
@@ -200,7 +196,6 @@ RobotRecording writeRobotRecording(const Mission& mission, int index, const std:
     bag_owner.reset();
   }
   ground_truth.close();
-  if (!ground_truth) throw std::runtime_error("cannot write " + stats.ground_truth_file);
   stats.bag_bytes = std::filesystem::file_size(stats.bag_file);
   return stats;
 }

@@ -105,6 +105,12 @@ std::string rosHomeFile(const std::string& name) {
   return (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" + name;
 }
 
+void load(ParamReader& reader, const std::string& robot_name, SaveSettings& save) {
+  reader.read("save_dir", save.dir);
+  reader.read("save_on_shutdown", save.on_shutdown);
+  if (save.dir.empty()) save.dir = rosHomeFile("ccir_mapping/" + robot_name);
+}
+
 }  // namespace
 
 void load(ParamReader& reader, PreprocessorSettings& config) {
@@ -190,7 +196,7 @@ void load(ParamReader& reader, BackendSettings& config) {
   reader.read("team_disagreement_m", p.team_disagreement_m);
   reader.read("team_disagreement_deg", p.team_disagreement_deg);
   reader.addErrors(p.validate());
-  config.graph_path = rosHomeFile(config.frames.robot_name + "_team_graph.g2o");
+  load(reader, config.frames.robot_name, config.save);
 }
 
 void load(ParamReader& reader, MapperSettings& config) {
@@ -211,10 +217,8 @@ void load(ParamReader& reader, MapperSettings& config) {
   reader.read("entropy_box_min_z_m", p.entropy_box_min_z_m);
   reader.read("entropy_box_max_z_m", p.entropy_box_max_z_m);
   reader.read("publish_period_s", p.publish_period_s);
-  reader.read("map_path", config.map_path);
-  reader.read("save_on_shutdown", config.save_on_shutdown);
   reader.addErrors(p.validate());
-  if (config.map_path.empty()) config.map_path = rosHomeFile(config.frames.robot_name + "_map.bt");
+  load(reader, config.frames.robot_name, config.save);
 }
 
 void load(ParamReader& reader, BrokerSettings& config) {

@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <mutex>
 #include <random>
@@ -595,6 +597,30 @@ TEST(MapStage, ARebuildWaitsInProportionToTheScansTheLastOnePlaced) {
   EXPECT_TRUE(stage.rebuildIfDue(130.0));
   stage.waitForRebuild();
   EXPECT_EQ(stage.stats().rebuilds, 2U);
+}
+
+TEST(MapStage, SaveWritesTheMapIntoAFolderItCreatesAndOctoMapReadsItBack) {
+  MapStage stage("robot_a", params());
+  stage.addOwn(1, std::make_shared<const Cloud>(roomScan({0, 0, 0})), at(0, 0));
+  const std::string dir = ::testing::TempDir() + "map_stage_save/robot_a";
+  std::filesystem::remove_all(dir);
+  const std::string path = stage.save(dir);
+  EXPECT_EQ(path, dir + "/map.bt");
+  octomap::OcTree read(0.1);
+  ASSERT_TRUE(read.readBinary(path));
+  const std::size_t occupied =
+      stage.map()->read([](const auto& map) { return map.occupiedCentres().size(); });
+  std::size_t read_occupied = 0;
+  for (auto it = read.begin_leafs(); it != read.end_leafs(); ++it) {
+    read_occupied += read.isNodeOccupied(*it);
+  }
+  EXPECT_GT(occupied, 100U);
+  EXPECT_EQ(read_occupied, occupied);
+
+  const std::string blocked = ::testing::TempDir() + "map_stage_save/a_file";
+  std::ofstream(blocked) << "not a folder";
+  EXPECT_THROW(stage.save(blocked + "/robot_a"), std::runtime_error);
+  std::filesystem::remove_all(::testing::TempDir() + "map_stage_save");
 }
 
 TEST(MapStage, ARebuildStartsFromTheSettledScansAndReplacesOnlyTheWindow) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <stdexcept>
@@ -306,6 +307,40 @@ TEST_F(Corridor, TheWholeTeamGraphIsExportedToG2oWithRobotKeyedIdsAndSwitchValue
     switch_lines += line.rfind("VERTEX_SWITCH", 0) == 0;
   EXPECT_EQ(switch_lines, 15);
   std::remove(path.c_str());
+}
+
+TEST_F(Corridor, SaveWritesTheGraphAndBothTrajectoriesIntoAFolderItCreates) {
+  TeamGraph graph("robot_a", BackendParams{});
+  addKeyframes(graph, 0, kLength - 1);
+  meet(graph, 0, 14);
+  graph.optimize();
+  ASSERT_TRUE(
+      graph.addKeyframe(kLength, fromSeconds(kLength),
+                        own_.back() * Pose3(Eigen::Translation3d(1, 0, 0))));  // not optimised
+  const std::string dir = ::testing::TempDir() + "team_graph_save/robot_a";
+  std::filesystem::remove_all(dir);
+  const auto files = graph.save(dir);
+  ASSERT_EQ(files, (std::vector<std::string>{dir + "/team_graph.g2o", dir + "/trajectory.tum",
+                                             dir + "/odometry.tum"}));
+  EXPECT_EQ(backend::readG2o(files[0]).poses.size(), 2U * kLength);
+  const TumTrajectory trajectory = readTumTrajectory(files[1]);
+  const TumTrajectory odometry = readTumTrajectory(files[2]);
+  ASSERT_EQ(trajectory.stamps.size(), kLength + 1U) << "the newest continued by odometry";
+  EXPECT_EQ(trajectory.stamps, graph.trajectory().stamps);
+  EXPECT_EQ(odometry.stamps, trajectory.stamps);
+  EXPECT_EQ(trajectory.stamps.back(), fromSeconds(kLength));
+  for (std::size_t i = 0; i < trajectory.poses.size(); ++i) {
+    EXPECT_TRUE(trajectory.poses[i].isApprox(graph.trajectory().poses[i], 1e-6)) << i;
+    EXPECT_TRUE(odometry.poses[i].isApprox(graph.odometry().poses[i], 1e-6)) << i;
+  }
+  EXPECT_TRUE(odometry.poses[20].isApprox(own_[20], 1e-6));
+  EXPECT_TRUE(trajectory.poses[kLength].isApprox(
+      trajectory.poses[kLength - 1] * Pose3(Eigen::Translation3d(1, 0, 0)), 1e-6));
+
+  const std::string blocked = ::testing::TempDir() + "team_graph_save/a_file";
+  std::ofstream(blocked) << "not a folder";
+  EXPECT_THROW(graph.save(blocked + "/robot_a"), std::runtime_error);
+  std::filesystem::remove_all(::testing::TempDir() + "team_graph_save");
 }
 
 TEST_F(Corridor, BetweenFullEmRunsNewClosuresAreGatedByTheTransformFoundBefore) {

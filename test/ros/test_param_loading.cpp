@@ -134,16 +134,19 @@ TEST(ParamLoading, InvalidRobotNameAndFrames) {
   EXPECT_TRUE(hasError(reader, "odom_frame = '/odom' is not allowed"));
 }
 
-TEST(ParamLoading, TheMapGoesToRosHomeUnlessAPathIsGiven) {
+TEST(ParamLoading, TheMapGraphAndTrajectoriesGoToRosHomeUnlessAFolderIsGiven) {
   ::setenv("ROS_HOME", "/tmp/some_ros_home", 1);
-  MapperSettings settings;
+  MapperSettings mapper;
   ParamReader reader{params("{robot_name: robot_c}")};
-  load(reader, settings);
-  EXPECT_EQ(settings.map_path, "/tmp/some_ros_home/robot_c_map.bt");
-  MapperSettings given;
-  ParamReader with_path{params("{robot_name: robot_c, map_path: /data/c.bt}")};
-  load(with_path, given);
-  EXPECT_EQ(given.map_path, "/data/c.bt");
+  load(reader, mapper);
+  EXPECT_EQ(mapper.save.dir, "/tmp/some_ros_home/ccir_mapping/robot_c");
+  EXPECT_TRUE(mapper.save.on_shutdown);
+  BackendSettings backend;
+  ParamReader given{params("{robot_name: robot_c, save_dir: /data/c, save_on_shutdown: false}")};
+  load(given, backend);
+  EXPECT_TRUE(given.errors().empty());
+  EXPECT_EQ(backend.save.dir, "/data/c");
+  EXPECT_FALSE(backend.save.on_shutdown);
 }
 
 TEST(ParamLoading, UnknownKeysAreReported) {

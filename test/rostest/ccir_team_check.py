@@ -5,6 +5,8 @@ master, their bridges linked over loopback, each fed its own bag at 0.3 x. Offer
 requests, scans and receipts must flow between every pair both ways, no scan may arrive twice,
 nothing may be refused but the benign, no window on any link may carry more than
 burst + rate * its length, and the scans CCIR delivered must give inter-robot loop closures.
+Stopped like roslaunch stops them (SIGINT), the robots must leave their map, team graph and
+trajectories in their save_dir, readable.
 The two robots' scans cross as Gaussian mixtures (broker scan_encoding gmm), each under 10 KB;
 the three robots' as points."""
 import os
@@ -13,6 +15,7 @@ import subprocess
 import tempfile
 import unittest
 
+import numpy
 import rospy
 import rosunit
 import yaml
@@ -55,7 +58,8 @@ class CcirTeam(Processes, unittest.TestCase):
         master = self.start_team(run, robots, lambda robot, bridge: (
             "broker: {mode: ccir, stats_period_s: 0.5, scan_encoding: %s}\n" % encoding +
             "bridge: {%s, budget_bytes_per_s: %f, total_budget_bytes_per_s: %f, "
-            "burst_bytes: %d, stats_period_s: 0.2}\n" % (bridge, BUDGET, BUDGET, BURST)))
+            "burst_bytes: %d, stats_period_s: 0.2}\n" % (bridge, BUDGET, BUDGET, BURST)),
+            lambda robot: ["save_dir:=" + os.path.join(run, robot + "_saved")])
         for robot in robots:
             self.spawn("link_" + robot, ["rostopic", "echo", "-p", "/link_stats"], master[robot],
                        out=os.path.join(run, robot + "_links.csv"))
@@ -122,8 +126,37 @@ class CcirTeam(Processes, unittest.TestCase):
                 self.assertLess(p["scan_bytes_sent"] / max(1, p["scans_sent"]), max_scan_bytes)
             self.assertNotIn("", peers, "a stranger's messages reached " + robot)
         self.stop_all()
+        self.check_saved(run, robots)
         self.check_budget(run, robots)
         self.check_team_transforms(run, robots)
+
+    def check_saved(self, run, robots):
+        """What each robot wrote as it stopped: map.bt (OctoMap), team_graph.g2o holding its
+        keyframes, trajectory.tum and odometry.tum with one row per keyframe, stamps
+        increasing."""
+        for robot in robots:
+            saved = os.path.join(run, robot + "_saved")
+            with open(os.path.join(saved, "map.bt"), "rb") as f:
+                self.assertTrue(f.readline().startswith(b"# Octomap OcTree binary file"), robot)
+            self.assertGreater(os.path.getsize(os.path.join(saved, "map.bt")), 10000, robot)
+            trajectory = numpy.loadtxt(os.path.join(saved, "trajectory.tum"), ndmin=2)
+            odometry = numpy.loadtxt(os.path.join(saved, "odometry.tum"), ndmin=2)
+            self.assertEqual(trajectory.shape[1], 8)
+            self.assertGreater(trajectory.shape[0], 5, robot + "'s keyframes")
+            self.assertTrue(numpy.array_equal(trajectory[:, 0], odometry[:, 0]))
+            self.assertTrue(numpy.all(numpy.diff(trajectory[:, 0]) > 0))
+            self.assertTrue(numpy.allclose(numpy.linalg.norm(trajectory[:, 4:], axis=1), 1, 1e-6))
+            with open(os.path.join(saved, "team_graph.g2o")) as f:
+                lines = f.read().splitlines()
+            letters = {line.split()[3]: line.split()[2].rstrip(":")
+                       for line in lines if line.startswith("# robot ")}
+            own = [line for line in lines if line.startswith("VERTEX_SE3:QUAT") and
+                   chr(int(line.split()[1]) >> 56) == letters[robot]]
+            # The graph of the last optimisation: newer keyframes are only in the trajectories.
+            self.assertGreater(len(own), 0, robot)
+            self.assertLessEqual(len(own), trajectory.shape[0], robot)
+            print("%s saved: %d keyframes, %d of them in the team graph, map %d bytes" % (
+                robot, trajectory.shape[0], len(own), os.path.getsize(os.path.join(saved, "map.bt"))))
 
     def check_team_transforms(self, run, robots):
         """What the Backends made of the scans CCIR delivered: inter-robot loop closures on them,

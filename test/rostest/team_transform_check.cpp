@@ -211,12 +211,15 @@ TEST(TeamTransform, FoundDespiteFalseLoopClosures) {
   EXPECT_LT(error.translation().norm(), 0.15);
   EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 1.0);
 
-  // ~save_team_graph writes the whole graph, robot_b's keyframes with robot_a's, as g2o.
+  // ~save_team_graph writes the whole graph, robot_b's keyframes with robot_a's, as g2o (and the
+  // trajectories after it: "saved DIR/team_graph.g2o DIR/trajectory.tum DIR/odometry.tum").
   std_srvs::Trigger save;
   ASSERT_TRUE(ros::service::waitForService("backend/save_team_graph", 10000));
   ASSERT_TRUE(ros::service::call("backend/save_team_graph", save));
   ASSERT_TRUE(save.response.success) << save.response.message;
-  const std::string path = save.response.message.substr(save.response.message.find('/'));
+  const std::string& message = save.response.message;
+  const auto first = message.find('/');
+  const std::string path = message.substr(first, message.find(' ', first) - first);
   const core::backend::PoseGraph saved = core::backend::readG2o(path);
   const auto robot_b_poses = std::count_if(saved.keys.begin(), saved.keys.end(),
                                            [](const auto& key) { return key.robot == 'b'; });

@@ -23,6 +23,15 @@ struct RobotFrames {
   std::string base_frame;
 };
 
+/// Where a robot writes what it built: the Mapper its map (map.bt), the Backend its team graph
+/// and trajectories (team_graph.g2o, trajectory.tum, odometry.tum); on their save services and,
+/// with on_shutdown, when they stop (SIGINT, roslaunch shutdown, unloading).
+struct SaveSettings {
+  /// Left empty, load() sets $ROS_HOME/ccir_mapping/<robot_name> (~/.ros without ROS_HOME).
+  std::string dir;
+  bool on_shutdown = true;
+};
+
 struct PreprocessorSettings {
   RobotFrames frames;
   /// "topic": nav_msgs/Odometry on `odom` (base_frame in odom_frame); "tf": odom_frame ->
@@ -44,18 +53,13 @@ struct BackendSettings {
   RobotFrames frames;
   /// Broadcast map -> odom (and team transforms) on tf.
   bool publish_tf = true;
-  /// Where ~save_team_graph writes (not a parameter): load() sets
-  /// $ROS_HOME/<robot>_team_graph.g2o (~/.ros without ROS_HOME).
-  std::string graph_path;
+  SaveSettings save;
   core::backend::BackendParams core;
 };
 
 struct MapperSettings {
   RobotFrames frames;
-  /// Where ~save_map and shutdown write the map (.bt); left empty, load() sets
-  /// $ROS_HOME/<robot>_map.bt (~/.ros without ROS_HOME).
-  std::string map_path;
-  bool save_on_shutdown = true;
+  SaveSettings save;
   core::information::MapperParams core;
 };
 

@@ -3,6 +3,8 @@
 #include <malloc.h>
 
 #include <chrono>
+#include <filesystem>
+#include <stdexcept>
 
 namespace ccir_mapping::core::information {
 
@@ -124,9 +126,16 @@ void MapStage::waitForRebuild() {
   rebuild_done_.wait(lock, [this] { return !busy_; });
 }
 
-bool MapStage::save(const std::string& path) {
+std::string MapStage::save(const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) throw std::runtime_error("cannot create " + dir + ": " + error.message());
+  const std::string path = dir + "/map.bt";
   waitForRebuild();
-  return map_->write([&](OccupancyMap& map) { return map.save(path); });
+  if (!map_->write([&](OccupancyMap& map) { return map.save(path); })) {
+    throw std::runtime_error("cannot write " + path);
+  }
+  return path;
 }
 
 MapStage::Stats MapStage::stats() const {

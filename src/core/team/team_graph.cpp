@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <numeric>
 #include <stdexcept>
@@ -503,6 +504,29 @@ void TeamGraph::saveG2o(const std::string& path) const {
     out << "# robot " << char('a' + r) << ": " << robots[r] << '\n';
   }
   if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+TumTrajectory TeamGraph::trajectory() const { return {stamps_, graph_.poses}; }
+
+TumTrajectory TeamGraph::odometry() const { return {stamps_, odom_poses_}; }
+
+std::vector<std::string> TeamGraph::save(const std::string& dir) const {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) throw std::runtime_error("cannot create " + dir + ": " + error.message());
+  const std::string graph = dir + "/team_graph.g2o";
+  const std::string trajectory = dir + "/trajectory.tum";
+  const std::string odometry = dir + "/odometry.tum";
+  saveG2o(graph);
+  TumTrajectoryWriter::write(
+      trajectory,
+      "stamp x y z qx qy qz qw: " + robot_ + "'s keyframes in its map frame (" +
+          std::to_string(last_own_count_) + " optimised, newer ones by odometry)",
+      this->trajectory());
+  TumTrajectoryWriter::write(
+      odometry, "stamp x y z qx qy qz qw: " + robot_ + "'s keyframes in its odometry frame",
+      this->odometry());
+  return {graph, trajectory, odometry};
 }
 
 std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(

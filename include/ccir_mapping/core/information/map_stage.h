@@ -77,9 +77,10 @@ class MapStage {
   bool rebuildIfDue(double now_s);
   /// Returns once no rebuild or settling is under way.
   void waitForRebuild();
-  /// Writes the map (OctoMap .bt) as it is once a rebuild under way is done; false when the
-  /// file cannot be written.
-  bool save(const std::string& path);
+  /// Writes the map as it is once a rebuild under way is done to DIR/map.bt (OctoMap binary),
+  /// creating DIR, and returns the file's path. Throws std::runtime_error naming what it could
+  /// not write.
+  std::string save(const std::string& dir);
   Stats stats() const;
 
  private:

@@ -31,6 +31,7 @@
 #include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/backend/pose_graph_optimizer.h"
 #include "ccir_mapping/core/common/notice.h"
+#include "ccir_mapping/core/common/tum_trajectory.h"
 
 namespace ccir_mapping::core::team {
 
@@ -131,6 +132,14 @@ class TeamGraph {
   /// exportGraph() written as g2o (switchable loop closures with their values), preceded by a
   /// comment naming each robot's letter. Throws std::runtime_error when it cannot write.
   void saveG2o(const std::string& path) const;
+  /// This robot's keyframes (stamps, poses): in the map frame as of the last optimisation (the
+  /// newer ones continued by odometry), and their odometry poses in the odometry frame.
+  TumTrajectory trajectory() const;
+  TumTrajectory odometry() const;
+  /// Writes DIR/team_graph.g2o (saveG2o), DIR/trajectory.tum and DIR/odometry.tum (TUM format),
+  /// creating DIR, and returns their paths. Throws std::runtime_error naming what it could not
+  /// write.
+  std::vector<std::string> save(const std::string& dir) const;
 
   /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
   /// teammates' parts and every accepted closure included).
