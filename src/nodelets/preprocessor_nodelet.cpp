@@ -46,6 +46,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onOdometry(const nav_msgs::Odometry& msg) {
     if (const auto refusal = placement_->addOdometry(msg)) {
       count("dropped odom");
+      count("dropped odom (" + refusal->problem + ")");
       return warnPerKind("odometry " + refusal->problem, "dropping odometry at %.3f: %s%s%s",
                          msg.header.stamp.toSec(), refusal->problem.c_str(),
                          refusal->detail.empty() ? "" : ": ", refusal->detail.c_str());
@@ -66,7 +67,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
                               getNodeHandle().resolveName(topics::kVelodynePoints).c_str(),
                               missing.c_str());
       }
-      const auto arrival = stage_->arrive(conversions::toStamp(msg->header.stamp));
+      const auto arrival = stage_->arrive(conversions::toStamp(msg->header.stamp),
+                                          std::size_t{msg->width} * msg->height);
       if (!arrival.accepted) return dropScan(*msg, arrival.notices.front());
       for (const auto& notice : arrival.notices)
         warnPerKind(notice.kind, "%s", notice.text.c_str());
@@ -85,7 +87,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
       conversions::toPcl(msg, &scan_);
       const auto result =
           stage_->process(conversions::toStamp(msg.header.stamp), *placement.pose, scan_);
-      if (result.dropped()) count("dropped scans");
+      if (result.dropped())
+        countDroppedScan(result.notices.empty() ? "" : result.notices.back().kind);
       for (const auto& notice : result.notices) {
         warnPerKind(notice.kind, "%s cloud at %.3f: %s",
                     result.dropped() ? "dropping" : "about the", msg.header.stamp.toSec(),
@@ -99,8 +102,14 @@ class PreprocessorNodelet final : public PipelineNodelet {
     }
   }
 
-  void dropScan(const PointCloud2& cloud, const core::Notice& why) {
+  /// The total on diagnostics, and per reason.
+  void countDroppedScan(const std::string& kind) {
     count("dropped scans");
+    if (!kind.empty()) count("dropped scans (" + kind + ")");
+  }
+
+  void dropScan(const PointCloud2& cloud, const core::Notice& why) {
+    countDroppedScan(why.kind);
     warnPerKind(why.kind, "dropping cloud at %.3f in frame '%s': %s", cloud.header.stamp.toSec(),
                 cloud.header.frame_id.c_str(), why.text.c_str());
   }

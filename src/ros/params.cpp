@@ -136,6 +136,7 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.read("slice_max_z_m", p.slice_max_z_m);
   reader.read("threads", p.threads);
   reader.read("min_points", p.min_points);
+  reader.read("max_points", p.max_points);
   reader.read("keyframe_distance_m", p.keyframe_distance_m);
   reader.read("keyframe_rotation_deg", p.keyframe_rotation_deg);
   reader.read("odom_tolerance_s", p.odom_tolerance_s);

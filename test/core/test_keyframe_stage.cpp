@@ -56,18 +56,18 @@ Pose3 at(double x) {
 TEST(KeyframeStage, ArrivalsMustAdvanceAndGapsAreCounted) {
   KeyframeStage stage{PreprocessorParams{}};
   for (int i = 0; i < 5; ++i) {
-    const auto arrival = stage.arrive(i * kPeriod);
+    const auto arrival = stage.arrive(i * kPeriod, 1000);
     ASSERT_TRUE(arrival.accepted);
     EXPECT_EQ(arrival.missing_before, 0U);
     EXPECT_TRUE(arrival.notices.empty());
   }
-  const auto repeated = stage.arrive(4 * kPeriod);
+  const auto repeated = stage.arrive(4 * kPeriod, 1000);
   EXPECT_FALSE(repeated.accepted) << "a repeated stamp";
   ASSERT_EQ(repeated.notices.size(), 1U);
   EXPECT_EQ(repeated.notices[0].text,
             "stamp not after the previous scan (a bag replayed again? restart the pipeline)");
-  EXPECT_FALSE(stage.arrive(2 * kPeriod).accepted) << "a stamp going back";
-  const auto after_gap = stage.arrive(8 * kPeriod);  // 5, 6 and 7 lost
+  EXPECT_FALSE(stage.arrive(2 * kPeriod, 1000).accepted) << "a stamp going back";
+  const auto after_gap = stage.arrive(8 * kPeriod, 1000);  // 5, 6 and 7 lost
   ASSERT_TRUE(after_gap.accepted);
   EXPECT_EQ(after_gap.missing_before, 3U);
   ASSERT_EQ(after_gap.notices.size(), 1U);
@@ -75,6 +75,24 @@ TEST(KeyframeStage, ArrivalsMustAdvanceAndGapsAreCounted) {
   EXPECT_EQ(after_gap.notices[0].text.rfind("3 scan(s) missing before 0.800 (3 so far): ", 0), 0U)
       << after_gap.notices[0].text;
   EXPECT_EQ(stage.totals().missed_scans, 3U);
+}
+
+TEST(KeyframeStage, ACloudOfMoreThanMaxPointsIsRefusedAndItsStampStillCounts) {
+  PreprocessorParams params;
+  params.max_points = 5000;
+  KeyframeStage stage{params};
+  ASSERT_TRUE(stage.arrive(0, 5000).accepted);
+  const auto huge = stage.arrive(kPeriod, 10000000);
+  EXPECT_FALSE(huge.accepted);
+  ASSERT_FALSE(huge.notices.empty());
+  EXPECT_EQ(huge.notices[0].kind, "too many points");
+  EXPECT_EQ(huge.notices[0].text.rfind("10000000 points, more than max_points 5000", 0), 0U)
+      << huge.notices[0].text;
+  const auto next = stage.arrive(2 * kPeriod, 3000);
+  EXPECT_TRUE(next.accepted);
+  EXPECT_EQ(next.missing_before, 0U) << "the refused scan arrived: no gap";
+  params.min_points = 6000;
+  EXPECT_FALSE(params.validate().empty()) << "max_points below min_points";
 }
 
 TEST(KeyframeStage, MakesKeyframesFromTravelAndNeverFromTooFewPoints) {

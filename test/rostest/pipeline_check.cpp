@@ -6,9 +6,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
 #include <octomap/OcTree.h>
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
@@ -62,6 +64,7 @@ class Pipeline : public ::testing::Test {
     BrokerStats::ConstPtr broker_stats;
     LinkStats::ConstPtr link_stats;
     std::vector<rosgraph_msgs::Log::ConstPtr> log;
+    std::map<std::string, std::string> preprocessor_flow;  // its latest diagnostics
     std::vector<ros::Subscriber> subs;
     int scan = 0;  // scans published so far; scan i is stamped t0 + 0.1 i
     double t0 = 1000.0;
@@ -81,6 +84,18 @@ class Pipeline : public ::testing::Test {
           nh.subscribe<LinkStats>("link_stats", 10, [this](const auto& m) { link_stats = m; }));
       subs.push_back(nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
                                                       [this](const auto& m) { log.push_back(m); }));
+      subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+          "/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+            for (const auto& status : m->status) {
+              const std::string suffix = "preprocessor: flow";
+              if (status.hardware_id != robot || status.name.size() < suffix.size() ||
+                  status.name.compare(status.name.size() - suffix.size(), suffix.size(), suffix)) {
+                continue;
+              }
+              preprocessor_flow.clear();
+              for (const auto& value : status.values) preprocessor_flow[value.key] = value.value;
+            }
+          }));
 
       geometry_msgs::TransformStamped mount;
       mount.header.frame_id = robot + "/base_link";
@@ -141,6 +156,12 @@ class Pipeline : public ::testing::Test {
       const ros::Time t = stamp(scan++);
       cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(cloud(frame, t)));
       publishOdometry(t, x);
+    }
+
+    /// The Preprocessor's count of a flow on diagnostics (0 while it has none).
+    long flowCount(const std::string& flow) const {
+      const auto it = preprocessor_flow.find(flow + " messages");
+      return it == preprocessor_flow.end() ? 0 : std::stol(it->second);
     }
 
     bool logged(uint8_t level, const std::string& text) const {
@@ -379,6 +400,12 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   }
   s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(nan_cloud));
   s().publishOdometry(nan_cloud.header.stamp, x + 11.5);
+  // More points than max_points (5000 in the tests' launch files).
+  int max_points = 0;
+  ASSERT_TRUE(ros::param::get("preprocessor/max_points", max_points));
+  auto huge = State::cloud(s().robot + "/velodyne", s().stamp(s().scan++));
+  sensor_msgs::PointCloud2Modifier(huge).resize(max_points + 1);
+  s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(huge));
   // A stamp going backwards.
   s().cloud_pub.publish(boost::make_shared<sensor_msgs::PointCloud2>(
       State::cloud(s().robot + "/velodyne", s().stamp(s().scan - 3))));
@@ -396,7 +423,8 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
   for (const char* warning :
        {"malformed: ", "only 0 of 1000 points are finite",
         "1000 of 1000 points are NaN, infinite or zero in an unorganised cloud",
-        "stamp not after the previous scan", "lack the field(s) intensity ring time"}) {
+        "stamp not after the previous scan", "lack the field(s) intensity ring time",
+        "points, more than max_points"}) {
     EXPECT_TRUE(waitFor([&] { return s().logged(rosgraph_msgs::Log::WARN, warning); }, 10.0))
         << warning;
   }
@@ -406,6 +434,17 @@ TEST_F(Pipeline, BadInputIsDroppedWithAWarningAndThePipelineGoesOn) {
           return s().logged(rosgraph_msgs::Log::WARN, "in other frames: 'wrong_odom_frame' ->");
         },
         10.0));
+  }
+  // Each problem counted on diagnostics, by reason.
+  std::map<std::string, long> expected = {{"dropped scans (malformed)", 2},
+                                          {"dropped scans (cannot place it)", 1},
+                                          {"dropped scans (too few points)", 1},
+                                          {"dropped scans (too many points)", 1},
+                                          {"dropped scans (stamp not increasing)", 1}};
+  if (!s().odom_on_tf) expected["dropped odom (in other frames)"] = 1;
+  for (const auto& [flow, at_least] : expected) {
+    EXPECT_TRUE(waitFor([&] { return s().flowCount(flow) >= at_least; }, 30.0))
+        << flow << ": " << s().flowCount(flow);
   }
   // Bad scans made no keyframe: the only new one is the good scan's.
   EXPECT_EQ(s().keyframes.size(), before + 1);

@@ -37,13 +37,12 @@ std::string format(const char* format, ...) {
 
 }  // namespace
 
-KeyframeStage::Arrival KeyframeStage::arrive(Stamp stamp) {
+KeyframeStage::Arrival KeyframeStage::arrive(Stamp stamp, std::size_t points) {
   Arrival arrival;
   if (last_arrival_ && stamp <= *last_arrival_) {
     arrival.notices.push_back(kStampNotIncreasing);
     return arrival;
   }
-  arrival.accepted = true;
   last_arrival_ = stamp;
   arrival.missing_before = gaps_.add(stamp);
   totals_.missed_scans = gaps_.missed();
@@ -55,6 +54,14 @@ KeyframeStage::Arrival KeyframeStage::arrive(Stamp stamp) {
                 "play -r) if this machine cannot keep up",
                 static_cast<unsigned long>(arrival.missing_before), double(stamp) * 1e-9,
                 static_cast<unsigned long>(totals_.missed_scans))});
+  }
+  arrival.accepted = points <= static_cast<std::size_t>(params().max_points);
+  if (!arrival.accepted) {
+    arrival.notices.insert(
+        arrival.notices.begin(),
+        {"too many points", format("%zu points, more than max_points %d (a merged map or another "
+                                   "sensor's topic?)",
+                                   points, params().max_points)});
   }
   return arrival;
 }

@@ -19,6 +19,8 @@ std::vector<std::string> PreprocessorParams::validate() const {
   check.require(slice_max_z_m > slice_min_z_m, "slice_max_z_m must be greater than slice_min_z_m");
   check.inRange("threads", threads, 0, 64);
   check.inRange("min_points", min_points, 1, 10000000);
+  check.inRange("max_points", max_points, 1, 100000000);
+  check.require(max_points >= min_points, "max_points must be at least min_points");
   check.inRange("keyframe_distance_m", keyframe_distance_m, 0.0, 100.0);
   check.inRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0);
   check.inHalfOpenRange("odom_tolerance_s", odom_tolerance_s, 0.0, 5.0);

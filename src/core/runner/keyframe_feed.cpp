@@ -50,7 +50,7 @@ class KeyframeFeed::Sink final : public simulation::RecordingSink {
     const auto odom = odometry_.at(scan.stamp, tolerance_s_);
     const auto truth = truth_.at(scan.stamp, tolerance_s_);
     std::optional<SimKeyframe> keyframe;
-    if (!odom || !truth || !stage_.arrive(scan.stamp).accepted) {
+    if (!odom || !truth || !stage_.arrive(scan.stamp, scan.points.size()).accepted) {
       ++dropped_;
     } else {
       const Pose3 sensor = *odom * mount_;

@@ -34,7 +34,7 @@ class KeyframeStage {
     std::size_t usable_points = 0;
     /// Milliseconds spent filtering the keyframe (kKeyframe only).
     double filter_ms = 0.0;
-    /// Why the scan was dropped (see dropped()), or what is odd about a scan that was used:
+    /// Why the scan was dropped (the last one; see dropped()), or what is odd about a scan:
     /// non-finite points in an unorganised cloud, a keyframe the filters left empty.
     std::vector<Notice> notices;
 
@@ -42,8 +42,8 @@ class KeyframeStage {
     bool dropped() const { return outcome != Outcome::kKeyframe && outcome != Outcome::kSkipped; }
   };
 
-  /// A scan's arrival: refused (with why) when its stamp is not after the previous arrival's;
-  /// accepted otherwise, with what to report about scans missing before it.
+  /// A scan's arrival: refused (why first in notices) or accepted, with what to report about
+  /// scans missing before it.
   struct Arrival {
     bool accepted = false;
     /// Scans the gap before it lost (ScanGapCounter).
@@ -65,9 +65,10 @@ class KeyframeStage {
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit KeyframeStage(const PreprocessorParams& params);
 
-  /// A scan as it arrives, before it waits for its pose (a stamp not after the previous
-  /// arrival's: a bag replayed again).
-  Arrival arrive(Stamp stamp);
+  /// A scan of `points` points as it arrives, before it waits for its pose. Refused: a stamp not
+  /// after the previous arrival's (a bag replayed again), more than max_points points (its stamp
+  /// still counts as arrived).
+  Arrival arrive(Stamp stamp, std::size_t points);
 
   /// Offers a scan in the sensor frame with `sensor_pose`, the sensor frame in the
   /// gravity-aligned odometry frame at `stamp`. Scans come in stamp order.

@@ -32,6 +32,10 @@ struct PreprocessorParams {
   int threads = 1;
   /// Scans with fewer finite points within range are dropped rather than made keyframes.
   int min_points = 100;
+  /// Scans with more points (finite or not) are dropped as they arrive: 2 M is 7x a 128-beam
+  /// lidar's scan, and a cloud far beyond it (a merged map replayed on the wrong topic, a
+  /// driver bug) would stall the pipeline for seconds.
+  int max_points = 2000000;
   /// A new keyframe is made after this much odometry travel since the previous one ...
   double keyframe_distance_m = 1.0;
   /// ... or after this much rotation, whichever comes first.
