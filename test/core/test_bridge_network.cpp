@@ -177,12 +177,17 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   const int port_a = freeLoopbackPort();
   const int port_b = freeLoopbackPort();
   Inbox at_b;
+  std::mutex log_mutex;
+  std::vector<std::string> b_log;
   Bridge a(
       params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&...) {});
   Bridge b(
       params(port_b, "robot_a", port_a), "robot_b",
       [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
-      [](auto&&...) {});
+      [&](bool, const std::string& text) {
+        std::lock_guard<std::mutex> lock(log_mutex);
+        b_log.push_back(text);
+      });
   b.start();
 
   // A stranger: garbage, then a well-formed HELLO under another key.
@@ -232,6 +237,34 @@ TEST(BridgeNetwork, AStrangerIsRefusedAndCountedAndTheTeamLinkCarriesOn) {
   EXPECT_FALSE(a.publish(retyped, numbered(100, 1))) << "a topic keeps the type it started with";
   EXPECT_EQ(a.reports()[0].drops.at("type_changed"), 1U);
   EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 10.0));
+
+  // A HELLO replayed while the link is up and heard from (an attacker's recording of a's) is
+  // refused: the link stays up and carries on.
+  {
+    boost::asio::ip::tcp::socket replay(io);
+    replay.connect(
+        {boost::asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port_b)});
+    boost::asio::write(replay,
+                       boost::asio::buffer(encodeFrame(
+                           {FrameType::kHello, 0, 0, 1, 0, 1, encodeHello({"robot_a", 7})}, kKey)));
+    std::array<std::uint8_t, 16> reply;
+    boost::system::error_code ec;
+    replay.read_some(boost::asio::buffer(reply), ec);
+    EXPECT_EQ(ec, boost::asio::error::eof) << "b closed the replay without a word";
+  }
+  EXPECT_TRUE(a.publish(topic("inbox/offers", Priority::kControl), numbered(100, 2)));
+  EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 2, 10.0));
+  reports = b.reports();
+  EXPECT_TRUE(reports[0].connected);
+  EXPECT_EQ(reports.back().drops.at("refused: link already up"), 1U);
+  std::lock_guard<std::mutex> lock(log_mutex);
+  EXPECT_EQ(std::count_if(b_log.begin(), b_log.end(),
+                          [](const std::string& t) {
+                            return t.find("closed") != std::string::npos &&
+                                   t.find("link to robot_a") == 0;
+                          }),
+            1)
+      << "only the half-frame connection's close";
 }
 
 // Replaying at half speed, the budget holds per mission second: 300 KB take at least as many

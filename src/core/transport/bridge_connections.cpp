@@ -1,5 +1,6 @@
 #include "bridge_connections.h"
 
+#include <algorithm>
 #include <array>
 #include <stdexcept>
 
@@ -14,6 +15,9 @@ namespace {
 constexpr std::size_t kMaxUnidentified = 16;
 constexpr double kIdentifyTimeoutS = 5.0;
 constexpr std::size_t kHelloMaxBytes = 1024;
+// A new connection replaces a link's only once the link has been silent this fraction of
+// peer_timeout_s: two keep-alives missed.
+constexpr double kLinkSilentForReplacementFraction = 2.0 / 3.0;
 
 std::string endpointText(const tcp::socket& socket) {
   boost::system::error_code ec;
@@ -140,6 +144,15 @@ void BridgeConnections::identify(const Socket& socket,
       const auto link = std::find_if(context_.links.begin(), context_.links.end(),
                                      [&](const auto& l) { return l->config.name == hello->robot; });
       if (link == context_.links.end()) return give_up("unknown robot " + hello->robot);
+      // A HELLO proves only that someone once heard the team key (it may be a recording): it
+      // does not end a link still heard from. A peer that restarted closed its side (or went
+      // silent), so its next dial gets through.
+      if ((*link)->socket &&
+          context_.now() - std::max((*link)->session.sessionCounters().last_heard_s,
+                                    (*link)->connected_at_s) <
+              kLinkSilentForReplacementFraction * context_.params.peer_timeout_s) {
+        return give_up("link already up");
+      }
       --unidentified_;
       deadline->cancel();
       peer = hello->robot;

@@ -3,7 +3,8 @@
 // dialling with exponential backoff, attaching a connection to its link and closing it. Of two
 // robots the one whose name sorts first dials (a robot that does not listen dials everyone). A
 // connection that has not said who it is is bounded in number, time and size; one that fails is
-// refused and counted by reason. All with the context's mutex held, on the bridge's thread.
+// refused and counted by reason; so is one from a robot whose link is up and still heard from
+// (a replayed HELLO ends nothing). All with the context's mutex held, on the bridge's thread.
 #pragma once
 
 #include <map>
