@@ -10,6 +10,7 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <tuple>
 
 #include "ccir_mapping/core/transport/compression.h"
 #include "ccir_mapping/core/transport/frame_codec.h"
@@ -228,6 +229,17 @@ TEST(MessageFragments, ReassembleInAnyOrderWithinBounds) {
     EXPECT_LE(bounded.partialBytes(), 300000U);
   }
   EXPECT_GE(bounded.droppedMessages(), 7U);
+  // Messages announcing 65 535 fragments of one byte each are bounded by their slots too.
+  Reassembler slotted(150000, 64);
+  for (std::uint64_t seq = 0; seq < 64; ++seq) {
+    slotted.add({FrameType::kData, 0, 7, seq, 0, 65535, {1}});
+    EXPECT_EQ(slotted.partialMessages(), 1U);
+  }
+  EXPECT_EQ(slotted.droppedMessages(), 63U);
+  const auto whole = fragmentMessage(8, 1, std::vector<std::uint8_t>(140000), 65536);
+  EXPECT_FALSE(slotted.add(whole[0]));
+  EXPECT_FALSE(slotted.add(whole[1]));
+  EXPECT_EQ(slotted.add(whole[2])->size(), 140000U) << "a real message still gets through";
   // A fragment that disagrees on the count is dropped.
   auto odd = fragmentMessage(6, 11, message, 65536)[1];
   odd.fragments = 9;
@@ -578,6 +590,23 @@ TEST(PeerSession, RefusesAForeignKeyAnotherRobotAndDataBeforeHello) {
   EXPECT_FALSE(b.input(bytes.data(), bytes.size(), 0.0, inbox)) << "stays refused";
   EXPECT_TRUE(inbox.empty());
   EXPECT_THROW(a.send(7, {}, 0.0), std::invalid_argument);
+}
+
+// What a peer can make us hold in topic announcements is bounded: a thousand topics pass, a
+// flood of them (or of huge definitions) is refused.
+TEST(PeerSession, BoundsWhatThePeerAnnounces) {
+  for (const auto& [topics, definition_bytes, refused] :
+       {std::tuple<int, std::size_t, bool>{1000, 10, false}, {1025, 10, true}, {70, 60000, true}}) {
+    Pair link;
+    TopicInfo t = scanTopic();
+    t.definition.assign(definition_bytes, 'x');
+    for (int i = 0; i < topics; ++i) link.a.addTopic(t, 0.0);
+    link.a.connected(0.0);
+    link.b.connected(0.0);
+    for (int step = 0; step < 500; ++step) link.step(step / 10.0, true, true);
+    EXPECT_EQ(link.ok, !refused) << topics;
+    EXPECT_EQ(link.b.reason().find("more topic announcements") == 0, refused) << link.b.reason();
+  }
 }
 
 TEST(PeerSession, ARestartedPeerGetsLatchedStateAndItsSequencesAnew) {

@@ -29,6 +29,12 @@ std::vector<Frame> fragmentMessage(std::uint16_t topic, std::uint64_t sequence,
   return frames;
 }
 
+namespace {
+// What an incomplete message's slot for one fragment costs: the vector that will hold it, its
+// allocation's overhead and the received flag.
+constexpr std::size_t kSlotBytes = sizeof(std::vector<std::uint8_t>) + 40;
+}  // namespace
+
 Reassembler::Reassembler(std::size_t max_message_bytes, std::size_t max_partial_messages)
     : max_message_bytes_(max_message_bytes),
       max_partial_messages_(std::max<std::size_t>(1, max_partial_messages)) {}
@@ -50,11 +56,17 @@ std::optional<std::vector<std::uint8_t>> Reassembler::add(const Frame& frame) {
     p.received.assign(frame.fragments, false);
     p.missing = frame.fragments;
     p.arrival = arrivals_++;
+    // Each announced fragment costs a slot before any byte of it came: counted with the bytes,
+    // so that thousands of tiny fragments are bounded too.
+    p.bytes = frame.fragments * kSlotBytes;
+    partial_bytes_ += p.bytes;
     it = partial_.emplace(key, std::move(p)).first;
+    while (partial_bytes_ > 2 * max_message_bytes_ && partial_.size() > 1) dropOldest(it);
   }
   Partial& p = it->second;
   if (p.fragments.size() != frame.fragments || frame.fragment >= frame.fragments ||
-      p.received[frame.fragment] || p.bytes + frame.payload.size() > max_message_bytes_) {
+      p.received[frame.fragment] ||
+      p.bytes + frame.payload.size() > max_message_bytes_ + p.fragments.size() * kSlotBytes) {
     ++dropped_fragments_;
     return std::nullopt;
   }
@@ -67,7 +79,7 @@ std::optional<std::vector<std::uint8_t>> Reassembler::add(const Frame& frame) {
   while (partial_bytes_ > 2 * max_message_bytes_ && partial_.size() > 1) dropOldest(it);
   if (--p.missing > 0) return std::nullopt;
   std::vector<std::uint8_t> message;
-  message.reserve(p.bytes);
+  message.reserve(p.bytes - p.fragments.size() * kSlotBytes);
   for (const auto& f : p.fragments) message.insert(message.end(), f.begin(), f.end());
   partial_bytes_ -= p.bytes;
   partial_.erase(it);

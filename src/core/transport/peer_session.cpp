@@ -139,6 +139,7 @@ void PeerSession::connected(double now_s) {
   decoder_ = FrameDecoder(key_, params_.max_message_bytes);
   reassembler_ = Reassembler(params_.max_message_bytes, 64);
   peer_topics_.clear();
+  peer_topic_bytes_ = 0;
   peer_said_hello_ = false;
   hello_sent_ = false;
   out_key_.clear();
@@ -239,7 +240,12 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
         if (!decodeTopic(frame->payload, t) || frame->sequence == 0 || frame->sequence > 0xffff) {
           return refuse("a malformed topic announcement");
         }
-        peer_topics_[static_cast<std::uint16_t>(frame->sequence)] = t;
+        auto& announced = peer_topics_[static_cast<std::uint16_t>(frame->sequence)];
+        peer_topic_bytes_ += frame->payload.size() - announced.second;
+        announced = {t, frame->payload.size()};
+        if (peer_topics_.size() > kMaxPeerTopics || peer_topic_bytes_ > kMaxPeerTopicBytes) {
+          return refuse("more topic announcements than a peer may make");
+        }
         break;
       }
       case FrameType::kAck: {
@@ -249,20 +255,21 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
         break;
       }
       case FrameType::kData: {
-        const auto topic = peer_topics_.find(frame->topic);
-        if (topic == peer_topics_.end()) return refuse("data on a topic never announced");
+        const auto announced = peer_topics_.find(frame->topic);
+        if (announced == peer_topics_.end()) return refuse("data on a topic never announced");
+        const TopicInfo& topic = announced->second.first;
         auto message = reassembler_.add(*frame);
         if (!message) break;
-        if (topic->second.reliable) {
+        if (topic.reliable) {
           if (!filter_.accept(peer_, frame->topic, frame->sequence)) break;
           to_acknowledge[frame->topic] = filter_.delivered(peer_, frame->topic);
         }
-        if (topic->second.compressed) {
+        if (topic.compressed) {
           message = decompress(*message, params_.max_message_bytes);
           if (!message) return refuse("a message that does not decompress");
         }
         ++counters_.messages_received;
-        inbox.push_back({topic->second, std::move(*message)});
+        inbox.push_back({topic, std::move(*message)});
         break;
       }
     }

@@ -21,8 +21,9 @@ std::vector<Frame> fragmentMessage(std::uint16_t topic, std::uint64_t sequence,
                                    std::size_t fragment_bytes, std::uint8_t flags = 0);
 
 /// Puts fragments back together, in any order; bounded in message size, in how many messages
-/// may be incomplete at once and in the bytes they hold together (twice the largest message):
-/// to make room the oldest incomplete message is dropped. A sender interleaves at most a few.
+/// may be incomplete at once and in the bytes they hold together, a slot per announced fragment
+/// counted (twice the largest message): to make room the oldest incomplete message is dropped.
+/// A sender interleaves at most a few.
 class Reassembler {
  public:
   Reassembler(std::size_t max_message_bytes, std::size_t max_partial_messages);
@@ -34,6 +35,7 @@ class Reassembler {
   std::size_t droppedFragments() const { return dropped_fragments_; }
   std::size_t droppedMessages() const { return dropped_messages_; }
   std::size_t partialMessages() const { return partial_.size(); }
+  /// What the incomplete messages hold: their bytes and a slot per fragment.
   std::size_t partialBytes() const { return partial_bytes_; }
 
  private:
@@ -41,7 +43,7 @@ class Reassembler {
     std::vector<std::vector<std::uint8_t>> fragments;
     std::vector<bool> received;
     std::size_t missing = 0;
-    std::size_t bytes = 0;
+    std::size_t bytes = 0;  // received, and a slot per fragment
     std::uint64_t arrival = 0;
   };
 

@@ -145,7 +145,12 @@ class PeerSession {
   std::vector<TopicInfo> topics_;  // id - 1
   /// Latched topics: the latest message sent, with its sequence.
   std::map<std::uint16_t, std::pair<std::uint64_t, std::vector<std::uint8_t>>> latched_;
-  std::map<std::uint16_t, TopicInfo> peer_topics_;
+  /// The peer's topics with the size of their announcements, bounded together in number and
+  /// bytes (a topic's name, type and definition: a few KB).
+  static constexpr std::size_t kMaxPeerTopics = 1024;
+  static constexpr std::size_t kMaxPeerTopicBytes = 4 << 20;
+  std::map<std::uint16_t, std::pair<TopicInfo, std::size_t>> peer_topics_;
+  std::size_t peer_topic_bytes_ = 0;
   std::optional<std::uint64_t> peer_incarnation_;
   bool connected_ = false;
   bool peer_said_hello_ = false;
