@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "ccir_mapping/core/information/scan_ranker.h"
 #include "ccir_mapping/core/routing/broker_stage.h"
@@ -84,6 +85,18 @@ TEST_F(Provider, OfferHoldsAtMostWhatOnePeriodCarries) {
   down.connected = false;
   a.setLink("robot_b", down);
   EXPECT_FALSE(a.makeOffer("robot_b", 0.0)) << "link down";
+}
+
+// Found by fuzz_broker: a link state whose budget is beyond any count (or NaN) made the offer's
+// size an out-of-range conversion.
+TEST_F(Provider, ANonsenseLinkStateOffersAtMostEveryKeyframeOrNothing) {
+  for (KeyframeId id = 0; id < 4; ++id) keyframe(id, blocks(int(id) * 10, 10));
+  a.setLink("robot_b", link(1e300));
+  const auto offer = a.makeOffer("robot_b", 0.0);
+  ASSERT_TRUE(offer);
+  EXPECT_EQ(offer->scans.size(), 4u);
+  a.setLink("robot_b", link(std::numeric_limits<double>::quiet_NaN()));
+  EXPECT_FALSE(a.makeOffer("robot_b", 0.0));
 }
 
 TEST(ProviderWithTwoPeers, ThePeersShareTheRadiosTotalBudget) {

@@ -121,7 +121,8 @@ TEST(ScanPreprocessor, DegenerateNormalFilterDropsGroundCeilingOrBoth) {
     int floor = 0;
     int ceiling = 0;
     int walls = 0;
-    for (const auto& p : *ScanPreprocessor(params).process(rolled, up)) {
+    const auto cloud = ScanPreprocessor(params).process(rolled, up);  // alive for the loop
+    for (const auto& p : *cloud) {
       const float height = p.getVector3fMap().dot(up);
       (height < -0.9F ? floor : height > 1.9F ? ceiling : walls)++;
     }

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,14 @@ int main(int argc, char** argv) {
   write(out / "frame_stream" / "empty", std::vector<std::uint8_t>{});
   write(out / "frame_stream" / "operations",
         std::vector<std::uint8_t>{0, 1, 2, 3, 4, 1, 0, 1, 3, 3, 1, 2, 0, 4, 4, 1});
+  // Broker: its input picks operations and their fields (FuzzedDataProvider), so any bytes make
+  // a session; a few drawn ones of a period's length start it off.
+  std::mt19937 draw(7);
+  for (const std::size_t length : {64, 512, 4096}) {
+    std::vector<std::uint8_t> bytes(length);
+    for (auto& b : bytes) b = static_cast<std::uint8_t>(draw());
+    write(out / "broker" / ("drawn_" + std::to_string(length)), bytes);
+  }
   // Scans: 40 points on a wall, as points and as a two-Gaussian mixture.
   std::vector<core::transport::ScanPoint> points;
   for (int i = 0; i < 40; ++i) points.push_back({float(i % 8), 3.0f, float(i / 8), 0, -1, 0, 9});

@@ -177,7 +177,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     refuse(name, "unacknowledged", before - peer->unacknowledged.size());
   }
   const double capacity = periodCapacity(*peer);
-  if (capacity <= 0.0) return std::nullopt;
+  if (!(capacity > 0.0)) return std::nullopt;  // (NaN from a nonsense link state too)
 
   std::vector<KeyframeId> ids;
   std::vector<const Kept*> candidates;
@@ -196,7 +196,8 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
   }
   if (ids.empty()) return std::nullopt;
   const double average_bytes = std::max(1.0, total_bytes / double(kept_.size()));
-  const auto n = static_cast<std::size_t>(std::max(1.0, std::floor(capacity / average_bytes)));
+  const auto n = static_cast<std::size_t>(
+      std::clamp(std::floor(capacity / average_bytes), 1.0, double(ids.size())));
 
   // F = c_k u_k / eta. A keyframe whose uncertainty is not known yet counts as the most
   // uncertain (it is the newest).
