@@ -673,6 +673,7 @@ LinkStats toLinkStatsMsg(const core::transport::LinkReport& report, const std::s
   msg.queued_control_bytes = report.queued_control_bytes;
   msg.queued_bulk_bytes = report.queued_bulk_bytes;
   msg.available_tokens_bytes = report.available_tokens_bytes;
+  msg.peer_restarts = static_cast<std::uint32_t>(report.received.peer_restarts);
   for (const auto& [reason, n] : report.drops) {
     if (n == 0) continue;
     msg.drop_reasons.push_back(reason);

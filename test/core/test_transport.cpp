@@ -675,6 +675,7 @@ TEST(PeerSession, ARestartedPeerGetsLatchedStateAndItsSequencesAnew) {
   EXPECT_EQ(first_bytes(at_restarted), (std::vector<int>{4, 3}));
   ASSERT_EQ(link.at_a.size(), 1U) << "the restarted b's first message is not a duplicate";
   EXPECT_EQ(link.at_a[0].bytes, std::vector<std::uint8_t>(10, 9));
+  EXPECT_EQ(link.a.sessionCounters().peer_restarts, 1U) << "a reconnection is not a restart";
 }
 
 TEST(PeerSession, KeepAliveIsHeardAndOversizedMessagesAreNotSent) {

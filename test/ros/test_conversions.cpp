@@ -581,6 +581,7 @@ TEST(Conversions, LinkStatsReportALinkWithItsBudgetsAndTheDropsThatHappened) {
   report.sent.messages_sent = 7;
   report.received.bytes_received = 900;
   report.received.messages_received = 3;
+  report.received.peer_restarts = 2;
   report.queued_control = 2;
   report.queued_bulk = 1;
   report.queued_control_bytes = 300;
@@ -601,6 +602,7 @@ TEST(Conversions, LinkStatsReportALinkWithItsBudgetsAndTheDropsThatHappened) {
   EXPECT_EQ(msg.messages_sent, 7U);
   EXPECT_EQ(msg.bytes_received, 900U);
   EXPECT_EQ(msg.messages_received, 3U);
+  EXPECT_EQ(msg.peer_restarts, 2U);
   EXPECT_DOUBLE_EQ(msg.send_rate_bytes_per_s, 812.5);
   EXPECT_DOUBLE_EQ(msg.budget_bytes_per_s, 100000);
   EXPECT_DOUBLE_EQ(msg.total_budget_bytes_per_s, 150000);

@@ -8,10 +8,17 @@ With ~netns, the two robots live in network namespaces the test makes, joined by
 shaped with tbf (the kernel's rate limiter; 250 KB/s, above the budget) and addressed from
 10.200.0.0/24; it is skipped with a message where namespaces cannot be made.
 
+With ~restart, robot_b crashes instead of the cut: its bridge (manager, nodelet loader,
+roslaunch) and traffic node are killed with SIGKILL, as a manager dies with the nodelets in it,
+and started again. The teammates must keep running, take robot_b back as a new incarnation, and
+deliver every message of each robot_b process once and in order (the first process's up to its
+crash), and robot_b's new process everything sent after its first message, latched state
+included.
+
 Checks: every control message and scan from each teammate arrives exactly once and in order
 across the cut; each robot's bytes on the wire stay within its total budget in every 1 s (and
 5 s) window while scans saturate it, and fill most of it; control messages stay fast (those sent
-around the cut excepted)."""
+around the cut or the restart excepted)."""
 import csv
 import json
 import os
@@ -33,7 +40,27 @@ from rostest_processes import Processes, free_port
 BUDGET = 150000.0
 BURST = 131072
 TEAM_KEY = "bridge-test-team-key"
-CUT_AFTER_S = 8.0  # into the traffic
+CUT_AFTER_S = 8.0  # into the traffic; robot_b's crash with ~restart too
+RESTART_TRAFFIC_AFTER_S = 4.0  # after the crash: robot_b's new process sends from then
+
+
+def descendants(pid):
+    """pid and every process below it (from /proc)."""
+    children = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open("/proc/%s/stat" % entry) as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(entry))
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        found.append(p)
+        todo += children.get(p, [])
+    return found
 
 
 def executable(name):
@@ -46,6 +73,7 @@ def executable(name):
 class BridgeMasters(Processes, unittest.TestCase):
     def setUp(self):
         self.netns = rospy.get_param("~netns", False)
+        self.restart = rospy.get_param("~restart", False)
         count = 2 if self.netns else rospy.get_param("~robots", 2)
         self.robots = ["robot_%s" % c for c in "abcdefgh"[:count]]
         self.duration_s = rospy.get_param("~duration_s", 12.0)
@@ -120,6 +148,17 @@ class BridgeMasters(Processes, unittest.TestCase):
         with open(os.path.join(self.dir, name + ".log")) as f:
             return "".join(f.readlines()[-lines:])
 
+    def peer_restarts(self, robot, master_port, peer):
+        """peer_restarts in the robot's next link_stats for the peer."""
+        env = dict(os.environ, ROS_IP="127.0.0.1",
+                   ROS_MASTER_URI="http://127.0.0.1:%d" % master_port)
+        rows = subprocess.run(["rostopic", "echo", "-n", "10", "-p", "/link_stats"], env=env,
+                              capture_output=True, text=True, timeout=60).stdout
+        for row in csv.DictReader(rows.splitlines()):
+            if row["field.peer"] == peer:
+                return int(row["field.peer_restarts"])
+        return None
+
     def test_team_over_separate_masters(self):
         n = len(self.robots)
         masters = {r: free_port() for r in self.robots}
@@ -143,7 +182,7 @@ class BridgeMasters(Processes, unittest.TestCase):
                            host[b], "--target-port", str(listen[b]), "--rate-bytes-per-s", "1e6",
                            "--seed", str(i + 1),
                            "--log", os.path.join(self.dir, "wire_%s_%s.csv" % (a, b))]
-                if (a, b) == ("robot_a", "robot_b"):
+                if (a, b) == ("robot_a", "robot_b") and not self.restart:
                     command += ["--cut-at-s", str(start_at - proxy_started + CUT_AFTER_S)]
                 proxies[(a, b)] = (port, self.spawn("proxy_%s_%s" % (a, b), prefix[a] + command))
         for robot in self.robots:
@@ -155,6 +194,19 @@ class BridgeMasters(Processes, unittest.TestCase):
                 "while not m.is_online() and time.time() < deadline: time.sleep(0.1)\n"
                 "sys.exit(0 if m.is_online() else 1)" % masters[robot]], timeout=30)
             self.assertEqual(waited.returncode, 0, "rosmaster of %s did not come up" % robot)
+
+        def start_robot(robot, config, at, settle_s=40.0):
+            self.spawn("bridge_" + robot,
+                       prefix[robot] + ["roslaunch", "ccir_mapping", "bridge.launch",
+                                        "robot:=" + robot, "config:=" + config],
+                       masters[robot])
+            self.spawn("traffic_" + robot,
+                       prefix[robot] + [executable("bridge_traffic.py"), "--robot", robot, "--peers",
+                        ",".join(r for r in self.robots if r != robot), "--start-at",
+                        str(at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
+                        "--cloud-bytes", str(self.cloud_bytes), "--settle-s", str(settle_s),
+                        "--out", os.path.join(self.dir, "traffic_%s.json" % robot)],
+                       masters[robot])
 
         for robot in self.robots:
             peers = []
@@ -176,22 +228,31 @@ class BridgeMasters(Processes, unittest.TestCase):
                         "           {topic: outbox/state, priority: control},\n"
                         "           {topic: outbox/cloud, priority: bulk}]\n"
                         % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
-            self.spawn("bridge_" + robot,
-                       prefix[robot] + ["roslaunch", "ccir_mapping", "bridge.launch",
-                                        "robot:=" + robot, "config:=" + config],
-                       masters[robot])
-            self.spawn("traffic_" + robot,
-                       prefix[robot] + [executable("bridge_traffic.py"), "--robot", robot, "--peers",
-                        ",".join(r for r in self.robots if r != robot), "--start-at",
-                        str(start_at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
-                        "--cloud-bytes", str(self.cloud_bytes), "--out",
-                        os.path.join(self.dir, "traffic_%s.json" % robot)],
-                       masters[robot])
+            start_robot(robot, config, start_at)
+        traffic = {r: p for r, p in zip(self.robots, [p for p in self.processes if "--peers" in p.args])}
 
-        traffic = [p for p in self.processes if "--peers" in p.args]
-        for robot, process in zip(self.robots, traffic):
+        restarted_at = None
+        if self.restart:
+            # robot_b crashes mid-traffic: its manager, loader, roslaunch and traffic node at once.
+            time.sleep(max(0.0, start_at + CUT_AFTER_S - time.time()))
+            bridge_b = [p for p in self.processes if "robot:=robot_b" in p.args][0]
+            for pid in descendants(bridge_b.pid) + [traffic["robot_b"].pid]:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            bridge_b.wait(timeout=10)
+            traffic["robot_b"].wait(timeout=10)
+            restarted_at = time.time() + RESTART_TRAFFIC_AFTER_S
+            os.rename(os.path.join(self.dir, "bridge_robot_b.log"),
+                      os.path.join(self.dir, "bridge_robot_b_crashed.log"))
+            start_robot("robot_b", os.path.join(self.dir, "robot_b.yaml"), restarted_at,
+                        settle_s=10.0)
+            traffic["robot_b"] = self.processes[-1]
+
+        for robot, process in traffic.items():
             try:
-                process.wait(timeout=start_at - time.time() + self.duration_s + 60)
+                process.wait(timeout=max(start_at, restarted_at or 0) - time.time() + self.duration_s + 60)
             except subprocess.TimeoutExpired:
                 self.fail("traffic of %s did not finish:\n%s" % (robot, self.log_tail("traffic_" + robot)))
             self.assertEqual(process.returncode, 0, "traffic of %s failed:\n%s\nbridge:\n%s" % (
@@ -207,8 +268,14 @@ class BridgeMasters(Processes, unittest.TestCase):
             sent = int(re.search(r"Sent (\d+) bytes", stats).group(1))
             print("tbf on robot_a's veth sent %d bytes" % sent)
             self.assertGreater(sent, 0.5 * BUDGET * self.duration_s, stats)
-        self.assertIn("cut every connection", self.log_tail("proxy_robot_a_robot_b"))
-        self.assertIn("closed", self.log_tail("bridge_robot_a", 200), "robot_a saw the cut")
+        if self.restart:
+            for robot in self.robots:
+                if robot != "robot_b":
+                    self.assertEqual(self.peer_restarts(robot, masters[robot], "robot_b"), 1,
+                                     "%s took robot_b back as a new incarnation" % robot)
+        else:
+            self.assertIn("cut every connection", self.log_tail("proxy_robot_a_robot_b"))
+            self.assertIn("closed", self.log_tail("bridge_robot_a", 200), "robot_a saw the cut")
         results = {}
         for robot in self.robots:
             with open(os.path.join(self.dir, "traffic_%s.json" % robot)) as f:
@@ -222,14 +289,33 @@ class BridgeMasters(Processes, unittest.TestCase):
                 sent = results[peer]["sent"]
                 for kind in ("ping", "cloud"):
                     numbers = [m[0] for m in got[kind]]
+                    what = "%s from %s at %s (%d of %d)" % (kind, peer, robot, len(numbers),
+                                                            sent[kind])
+                    if self.restart and robot == "robot_b":
+                        # The new process: from its first message on, each once, in order, to
+                        # the last sent.
+                        self.assertTrue(numbers, what)
+                        self.assertEqual(numbers, list(range(numbers[0], sent[kind])), what)
+                        continue
+                    if self.restart and peer == "robot_b":
+                        # The crashed process's up to the crash, then all the new one's.
+                        resets = [i for i in range(1, len(numbers)) if numbers[i] <= numbers[i - 1]]
+                        self.assertEqual(len(resets), 1, what + ": %s" % numbers)
+                        first, second = numbers[:resets[0]], numbers[resets[0]:]
+                        self.assertEqual(first, list(range(len(first))), what)
+                        self.assertEqual(second, list(range(sent[kind])), what)
+                        continue
                     self.assertEqual(numbers, list(range(sent[kind])),
-                                     "%s from %s at %s: not exactly once in order (%d of %d)\n%s"
-                                     % (kind, peer, robot, len(numbers), sent[kind],
-                                        self.log_tail("bridge_" + robot)))
-                # Control latency, except for pings sent around the cut of a-b.
-                around_cut = {peer, robot} == {"robot_a", "robot_b"}
+                                     "%s: not exactly once in order\n%s"
+                                     % (what, self.log_tail("bridge_" + robot)))
+                # Control latency, except for pings sent around the cut of a-b or robot_b's
+                # crash and restart.
+                if self.restart:
+                    around, since, until = "robot_b" in (peer, robot), cut_at - 1.0, restarted_at + 3.0
+                else:
+                    around, since, until = {peer, robot} == {"robot_a", "robot_b"}, cut_at - 1.0, cut_at + 3.0
                 all_latencies += [arrived - stamp for _, stamp, arrived in got["ping"]
-                                  if not (around_cut and cut_at - 1.0 <= stamp <= cut_at + 3.0)]
+                                  if not (around and since <= stamp <= until)]
         all_latencies.sort()
         p50 = all_latencies[len(all_latencies) // 2]
         p99 = all_latencies[int(0.99 * (len(all_latencies) - 1))]

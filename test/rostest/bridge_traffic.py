@@ -5,7 +5,7 @@ From a given wall time it publishes, for a given time, PointCloud2 "scans" on ou
 (incompressible bytes) and small control messages (std_msgs/Header) on outbox/ping, numbered in
 frame_id and stamped with the wall time of sending. It records what arrives on
 inbox/<peer>/cloud and inbox/<peer>/ping from each teammate until everything each teammate sent
-has arrived (or a time limit passes). It also latches one message on outbox/state before the
+has arrived from its latest process (or a time limit passes). It also latches one message on outbox/state before the
 traffic; at the end a new subscriber to each teammate's inbox/<peer>/state must still get it.
 Writes what it saw as JSON."""
 import argparse
@@ -84,10 +84,16 @@ def main():
             cloud.is_dense = True
             cloud_pub.publish(cloud)
 
+    def latest_process(got):
+        """What arrived from the teammate's latest process: since its numbers last started over
+        (a teammate that restarted counts from 0 again)."""
+        starts = [i for i in range(1, len(got)) if got[i][0] <= got[i - 1][0]]
+        return got[starts[-1] if starts else 0:]
+
     def complete():
         with lock:
-            return all(len(received[p]["ping"]) >= pings and len(received[p]["cloud"]) >= clouds
-                       for p in peers)
+            return all(len(latest_process(received[p]["ping"])) >= pings and
+                       len(latest_process(received[p]["cloud"])) >= clouds for p in peers)
 
     deadline = time.time() + args.settle_s
     while not complete() and time.time() < deadline and not rospy.is_shutdown():

@@ -23,8 +23,15 @@ BridgePump::BridgePump(BridgeContext& context, Close close)
 
 bool BridgePump::input(BridgeLink& link, const std::uint8_t* data, std::size_t n,
                        std::vector<InboxMessage>& inbox) {
+  const auto restarts = link.session.sessionCounters().peer_restarts;
   if (link.session.input(data, n, context_.now(), inbox)) {
     link.backoff_s = 0.0;  // an authenticated peer: the next dial starts quick again
+    if (link.session.sessionCounters().peer_restarts > restarts) {
+      // As rare as a link coming up, so logged as one (not throttled with the warnings).
+      context_.log(false, link.config.name +
+                              " restarted (a new incarnation): its sequences start again and "
+                              "it gets the latched topics' latest");
+    }
     return true;
   }
   close_(link, "refused its stream: " + link.session.reason(), link.session.reason());

@@ -205,7 +205,10 @@ bool PeerSession::greet(const std::vector<std::uint8_t>& payload, double now_s) 
 void PeerSession::welcome(const Hello& hello, double now_s) {
   const bool restarted = peer_incarnation_ != hello.incarnation;
   // A restarted peer's sequences start again.
-  if (restarted && peer_incarnation_) filter_ = SequenceFilter();
+  if (restarted && peer_incarnation_) {
+    filter_ = SequenceFilter();
+    ++counters_.peer_restarts;
+  }
   peer_incarnation_ = hello.incarnation;
   // The latest latched messages: reliable ones for a new peer process (unless waiting in the
   // outbox anyway), unreliable ones on every connection (they may have been lost with the last).

@@ -44,7 +44,8 @@ struct LinkReport {
 class Bridge {
  public:
   using InboxHandler = std::function<void(const std::string& peer, InboxMessage message)>;
-  /// A link came up (false) or something went wrong (true): closed, refused, unresolvable.
+  /// A link came up or a peer restarted (false), or something went wrong (true): closed,
+  /// refused, unresolvable.
   using LogHandler = std::function<void(bool warning, const std::string& text)>;
 
   /// Seconds on the clock budgets, keep-alives, silence and queue ages follow.

@@ -76,6 +76,8 @@ struct SessionCounters {
   double last_heard_s = -1.0;
   std::uint64_t dropped_not_connected = 0;  // unreliable messages offered with no link up
   std::uint64_t dropped_too_large = 0;      // above max_message_bytes
+  /// Connections on which the peer came back as a new process (a new incarnation).
+  std::uint64_t peer_restarts = 0;
 };
 
 class PeerSession {
