@@ -505,6 +505,19 @@ TEST(Compression, RoundTripsAndRefusesBombsAndGarbage) {
   EXPECT_TRUE(empty->empty());
 }
 
+/// `size` bytes starting with the little-endian number `n`.
+std::vector<std::uint8_t> numbered(std::size_t size, std::uint32_t n) {
+  std::vector<std::uint8_t> bytes(size, 0);
+  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<std::uint8_t>(n >> (8 * i));
+  return bytes;
+}
+
+std::uint32_t number(const std::vector<std::uint8_t>& bytes) {
+  std::uint32_t n = 0;
+  for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(bytes[i]) << (8 * i);
+  return n;
+}
+
 /// Two sessions joined by a byte pipe each way; a direction that is down drops what is on it.
 struct Pair {
   PeerSession a{"robot_a", "robot_b", kKey, SessionParams{}, 0.0};
@@ -590,6 +603,38 @@ TEST(PeerSession, RefusesAForeignKeyAnotherRobotAndDataBeforeHello) {
   EXPECT_FALSE(b.input(bytes.data(), bytes.size(), 0.0, inbox)) << "stays refused";
   EXPECT_TRUE(inbox.empty());
   EXPECT_THROW(a.send(7, {}, 0.0), std::invalid_argument);
+}
+
+// A minute without a link at 20 messages a second: all 1200 wait in the outbox (not bounded by
+// the topic's max_queued of 100) and arrive once and in order after the outage, behind no
+// resend of what had arrived before it.
+TEST(PeerSession, ALongOutageLosesNoReliableMessage) {
+  Pair link;
+  TopicInfo pings = scanTopic();
+  pings.policy = {Priority::kControl, QueuePolicy::kFifo, 0.0, 100};
+  const auto id = link.a.addTopic(pings, 0.0);
+  link.a.connected(0.0);
+  link.b.connected(0.0);
+  std::uint32_t n = 0;
+  const auto run = [&](int from_ms, int to_ms, bool up) {
+    for (int ms = from_ms; ms < to_ms; ++ms) {
+      if (ms % 50 == 0) link.a.send(id, numbered(200, n++), ms / 1000.0);
+      if (up) link.step(ms / 1000.0, true, true);
+    }
+  };
+  run(0, 5000, true);
+  link.a.disconnected();
+  link.b.disconnected();
+  run(5000, 65000, false);
+  link.a.connected(65.0);
+  link.b.connected(65.0);
+  run(65000, 75000, true);
+  ASSERT_TRUE(link.ok) << link.a.reason() << link.b.reason();
+  ASSERT_EQ(link.at_b.size(), n);
+  for (std::uint32_t i = 0; i < n; ++i) EXPECT_EQ(number(link.at_b[i].bytes), i);
+  EXPECT_EQ(link.b.missing(), 0U);
+  EXPECT_EQ(link.b.duplicatesDropped(), 0U);
+  EXPECT_EQ(link.a.counters().dropped_queue_full, 0U);
 }
 
 // What a peer can make us hold in topic announcements is bounded: a thousand topics pass, a

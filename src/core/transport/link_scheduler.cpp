@@ -32,18 +32,27 @@ std::uint64_t LinkScheduler::enqueue(std::uint16_t topic, std::vector<std::uint8
   Topic& t = it->second;
   auto& queue = waiting_[t.policy.priority];
   const auto same_topic = [topic](const Message& m) { return m.topic == topic; };
+  const auto same_topic_new = [topic](const Message& m) {
+    return m.topic == topic && !m.sent_again;
+  };
   if (t.policy.queue == QueuePolicy::kKeepLatest) {
     const auto before = queue.size();
     queue.erase(std::remove_if(queue.begin(), queue.end(), same_topic), queue.end());
     counters_.replaced += before - queue.size();
-  } else if (static_cast<std::size_t>(std::count_if(queue.begin(), queue.end(), same_topic)) >=
-             t.policy.max_queued) {
-    queue.erase(std::find_if(queue.begin(), queue.end(), same_topic));
+  } else if (!sequence && static_cast<std::size_t>(std::count_if(
+                              queue.begin(), queue.end(), same_topic_new)) >= t.policy.max_queued) {
+    queue.erase(std::find_if(queue.begin(), queue.end(), same_topic_new));
     ++counters_.dropped_queue_full;
   }
   const std::uint64_t seq = sequence ? *sequence : ++t.last_sequence;
-  queue.push_back({topic, type, seq, now_s, std::move(message)});
+  queue.push_back({topic, type, seq, now_s, std::move(message), sequence.has_value()});
   return seq;
+}
+
+std::uint64_t LinkScheduler::nextSequence(std::uint16_t topic) {
+  const auto it = topics_.find(topic);
+  if (it == topics_.end()) throw std::invalid_argument("LinkScheduler: unknown topic");
+  return ++it->second.last_sequence;
 }
 
 void LinkScheduler::dropExpired(double now_s) {

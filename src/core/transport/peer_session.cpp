@@ -126,10 +126,13 @@ void PeerSession::send(std::uint16_t topic, std::vector<std::uint8_t> message, d
     return;
   }
   // Kept for a resend: reliable messages until acknowledged, latched ones' latest for a peer
-  // that restarts.
+  // that restarts. With no connection up, a reliable message waits in the outbox alone: the
+  // next connection sends all it holds (its bound, not the topic's max_queued, limits a long
+  // outage).
   std::vector<std::uint8_t> copy;
   if (info.reliable || info.latched) copy = message;
-  const std::uint64_t sequence = scheduler_.enqueue(topic, std::move(message), now_s);
+  const std::uint64_t sequence = connected_ ? scheduler_.enqueue(topic, std::move(message), now_s)
+                                            : scheduler_.nextSequence(topic);
   if (info.latched) latched_[topic] = {sequence, copy};
   if (info.reliable) outbox_.sent(topic, sequence, std::move(copy));
 }

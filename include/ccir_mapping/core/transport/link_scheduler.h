@@ -41,10 +41,14 @@ class LinkScheduler {
   void shareBucket(std::shared_ptr<TokenBucket> total) { total_ = std::move(total); }
   /// Queues a serialised message of a topic set before (else std::invalid_argument); returns
   /// the sequence number it will carry (per topic, from 1). A message sent again after a
-  /// reconnect keeps its `sequence`; `type` is that of all its frames.
+  /// reconnect keeps its `sequence`, and is neither counted against the topic's max_queued nor
+  /// dropped for a newer one (what waits to be sent again is bounded where it is kept); `type`
+  /// is that of all its frames.
   std::uint64_t enqueue(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s,
                         FrameType type = FrameType::kData,
                         std::optional<std::uint64_t> sequence = std::nullopt);
+  /// The topic's next sequence number, for a message kept to be sent later (enqueue it with it).
+  std::uint64_t nextSequence(std::uint16_t topic);
   /// Forgets everything queued or half-sent (the connection it was for is gone).
   void clear();
 
@@ -69,6 +73,7 @@ class LinkScheduler {
     std::uint64_t sequence;
     double enqueued_s;
     std::vector<std::uint8_t> bytes;
+    bool sent_again = false;
   };
   struct Topic {
     TopicPolicy policy;
