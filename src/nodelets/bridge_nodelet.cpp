@@ -29,7 +29,7 @@ class BridgeNodelet final : public PipelineNodelet {
     if (!loadSettings(settings_)) return;
     inboxes_ = std::make_unique<Inboxes>(
         [this](const std::string& topic, const ShapeShifter::ConstPtr& first, bool latched) {
-          return first->advertise(getNodeHandle(), topic, topics::kKeyframeQueueSize, latched);
+          return first->advertise(getNodeHandle(), topic, topics::kInboxQueueSize, latched);
         },
         kNewTopicHoldS);
     try {

@@ -28,6 +28,7 @@ namespace {
 struct Options {
   LinkProxyParams params;
   std::vector<double> cut_at_s;
+  std::vector<double> outage_s;  // start, end pairs
   std::string log_path;
 };
 
@@ -50,8 +51,21 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "seed", po::value<std::uint64_t>(&params.link.seed)->default_value(1), "random seed")(
       "cut-at-s", po::value<std::vector<double>>(&o->cut_at_s)->multitoken(),
       "seconds after start at which every connection is closed")(
+      "outage-s", po::value<std::vector<double>>(&o->outage_s)->multitoken(),
+      "START END [START END ...]: seconds after start between which nothing arrives either "
+      "way (connections stay open; what was sent arrives after)")(
       "log", po::value<std::string>(&o->log_path), "CSV of the bytes relayed, written at exit");
-  return tools::parseCommandLine("link_proxy", options, argc, argv);
+  if (const auto exit_code = tools::parseCommandLine("link_proxy", options, argc, argv)) {
+    return exit_code;
+  }
+  if (o->outage_s.size() % 2) {
+    std::cerr << "link_proxy: --outage-s takes pairs START END\n";
+    return 2;
+  }
+  for (std::size_t i = 0; i < o->outage_s.size(); i += 2) {
+    params.link.outages.emplace_back(o->outage_s[i], o->outage_s[i + 1]);
+  }
+  return std::nullopt;
 }
 
 /// Relays until SIGINT or SIGTERM, cutting every connection at the times asked; throws

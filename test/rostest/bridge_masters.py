@@ -15,6 +15,11 @@ deliver every message of each robot_b process once and in order (the first proce
 crash), and robot_b's new process everything sent after its first message, latched state
 included.
 
+With ~outage_s, the robot_a-robot_b radio carries nothing for that long instead of the cut
+(its connections stay open, as a radio out of range: the bridges close them as silent and
+redial into the outage) while the traffic goes on; afterwards the backlog must arrive exactly
+once and in order within the budget.
+
 Checks: every control message and scan from each teammate arrives exactly once and in order
 across the cut; each robot's bytes on the wire stay within its total budget in every 1 s (and
 5 s) window while scans saturate it, and fill most of it; control messages stay fast (those sent
@@ -74,6 +79,7 @@ class BridgeMasters(Processes, unittest.TestCase):
     def setUp(self):
         self.netns = rospy.get_param("~netns", False)
         self.restart = rospy.get_param("~restart", False)
+        self.outage_s = rospy.get_param("~outage_s", 0.0)
         count = 2 if self.netns else rospy.get_param("~robots", 2)
         self.robots = ["robot_%s" % c for c in "abcdefgh"[:count]]
         self.duration_s = rospy.get_param("~duration_s", 12.0)
@@ -148,16 +154,16 @@ class BridgeMasters(Processes, unittest.TestCase):
         with open(os.path.join(self.dir, name + ".log")) as f:
             return "".join(f.readlines()[-lines:])
 
-    def peer_restarts(self, robot, master_port, peer):
-        """peer_restarts in the robot's next link_stats for the peer."""
+    def link_stats(self, robot, master_port, peer):
+        """The robot's next link_stats for the peer, as rostopic -p prints it (field.*)."""
         env = dict(os.environ, ROS_IP="127.0.0.1",
                    ROS_MASTER_URI="http://127.0.0.1:%d" % master_port)
         rows = subprocess.run(["rostopic", "echo", "-n", "10", "-p", "/link_stats"], env=env,
                               capture_output=True, text=True, timeout=60).stdout
         for row in csv.DictReader(rows.splitlines()):
             if row["field.peer"] == peer:
-                return int(row["field.peer_restarts"])
-        return None
+                return row
+        self.fail("no link_stats of %s for %s" % (robot, peer))
 
     def test_team_over_separate_masters(self):
         n = len(self.robots)
@@ -182,7 +188,10 @@ class BridgeMasters(Processes, unittest.TestCase):
                            host[b], "--target-port", str(listen[b]), "--rate-bytes-per-s", "1e6",
                            "--seed", str(i + 1),
                            "--log", os.path.join(self.dir, "wire_%s_%s.csv" % (a, b))]
-                if (a, b) == ("robot_a", "robot_b") and not self.restart:
+                if (a, b) == ("robot_a", "robot_b") and self.outage_s:
+                    begin = start_at - proxy_started + CUT_AFTER_S
+                    command += ["--outage-s", str(begin), str(begin + self.outage_s)]
+                elif (a, b) == ("robot_a", "robot_b") and not self.restart:
                     command += ["--cut-at-s", str(start_at - proxy_started + CUT_AFTER_S)]
                 proxies[(a, b)] = (port, self.spawn("proxy_%s_%s" % (a, b), prefix[a] + command))
         for robot in self.robots:
@@ -195,7 +204,7 @@ class BridgeMasters(Processes, unittest.TestCase):
                 "sys.exit(0 if m.is_online() else 1)" % masters[robot]], timeout=30)
             self.assertEqual(waited.returncode, 0, "rosmaster of %s did not come up" % robot)
 
-        def start_robot(robot, config, at, settle_s=40.0):
+        def start_robot(robot, config, at, settle_s=40.0 + self.outage_s):
             self.spawn("bridge_" + robot,
                        prefix[robot] + ["roslaunch", "ccir_mapping", "bridge.launch",
                                         "robot:=" + robot, "config:=" + config],
@@ -252,7 +261,8 @@ class BridgeMasters(Processes, unittest.TestCase):
 
         for robot, process in traffic.items():
             try:
-                process.wait(timeout=max(start_at, restarted_at or 0) - time.time() + self.duration_s + 60)
+                process.wait(timeout=max(start_at, restarted_at or 0) - time.time() + self.duration_s +
+                         60 + self.outage_s)
             except subprocess.TimeoutExpired:
                 self.fail("traffic of %s did not finish:\n%s" % (robot, self.log_tail("traffic_" + robot)))
             self.assertEqual(process.returncode, 0, "traffic of %s failed:\n%s\nbridge:\n%s" % (
@@ -271,8 +281,21 @@ class BridgeMasters(Processes, unittest.TestCase):
         if self.restart:
             for robot in self.robots:
                 if robot != "robot_b":
-                    self.assertEqual(self.peer_restarts(robot, masters[robot], "robot_b"), 1,
+                    row = self.link_stats(robot, masters[robot], "robot_b")
+                    self.assertEqual(int(row["field.peer_restarts"]), 1,
                                      "%s took robot_b back as a new incarnation" % robot)
+        elif self.outage_s:
+            self.assertIn("closed", self.log_tail("bridge_robot_a", 200),
+                          "robot_a closed the silent link")
+            for robot, peer in (("robot_a", "robot_b"), ("robot_b", "robot_a")):
+                row = self.link_stats(robot, masters[robot], peer)
+                # rostopic -p numbers array elements: field.drop_reasons0, field.drop_counts0, ...
+                drops = {row[k]: int(row[k.replace("reasons", "counts")]) for k in row
+                         if k.startswith("field.drop_reasons")}
+                print("%s's link to %s after the outage: drops %s" % (robot, peer, drops))
+                # (A "duplicate" is a message resent after the outage and dropped: as it should.)
+                for reason in ("missing", "given_up", "queue_full"):
+                    self.assertNotIn(reason, drops, "%s at %s" % (reason, robot))
         else:
             self.assertIn("cut every connection", self.log_tail("proxy_robot_a_robot_b"))
             self.assertIn("closed", self.log_tail("bridge_robot_a", 200), "robot_a saw the cut")
@@ -312,6 +335,9 @@ class BridgeMasters(Processes, unittest.TestCase):
                 # crash and restart.
                 if self.restart:
                     around, since, until = "robot_b" in (peer, robot), cut_at - 1.0, restarted_at + 3.0
+                elif self.outage_s:
+                    around, since, until = ({peer, robot} == {"robot_a", "robot_b"}, cut_at - 1.0,
+                                            cut_at + self.outage_s + 3.0)
                 else:
                     around, since, until = {peer, robot} == {"robot_a", "robot_b"}, cut_at - 1.0, cut_at + 3.0
                 all_latencies += [arrived - stamp for _, stamp, arrived in got["ping"]

@@ -56,5 +56,9 @@ constexpr int kMessageQueueSize = 50;
 /// Loop closures are small and may come in bursts (a teammate's backlog): none may be lost.
 constexpr int kLoopClosureQueueSize = 1000;
 constexpr int kLatestOnlyQueueSize = 1;
+/// What the Bridge republishes from a teammate comes in bursts after an outage (its whole
+/// backlog at once, e.g. a minute of 20 Hz control messages): a subscriber in another process
+/// must not lose it from the publisher's queue.
+constexpr int kInboxQueueSize = 2000;
 
 }  // namespace ccir_mapping::topics
