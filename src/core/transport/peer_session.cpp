@@ -247,7 +247,7 @@ bool PeerSession::input(const std::uint8_t* data, std::size_t size, double now_s
           return refuse("a malformed topic announcement");
         }
         auto& announced = peer_topics_[static_cast<std::uint16_t>(frame->sequence)];
-        peer_topic_bytes_ += frame->payload.size() - announced.second;
+        peer_topic_bytes_ = peer_topic_bytes_ - announced.second + frame->payload.size();
         announced = {t, frame->payload.size()};
         if (peer_topics_.size() > kMaxPeerTopics || peer_topic_bytes_ > kMaxPeerTopicBytes) {
           return refuse("more topic announcements than a peer may make");

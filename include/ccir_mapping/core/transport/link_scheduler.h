@@ -41,9 +41,9 @@ class LinkScheduler {
   void shareBucket(std::shared_ptr<TokenBucket> total) { total_ = std::move(total); }
   /// Queues a serialised message of a topic set before (else std::invalid_argument); returns
   /// the sequence number it will carry (per topic, from 1). A message sent again after a
-  /// reconnect keeps its `sequence`, and is neither counted against the topic's max_queued nor
-  /// dropped for a newer one (what waits to be sent again is bounded where it is kept); `type`
-  /// is that of all its frames.
+  /// reconnect keeps its `sequence` and, on a fifo topic, is neither counted against its
+  /// max_queued nor dropped for a newer message (what waits to be sent again is bounded where it
+  /// is kept); `type` is that of all its frames.
   std::uint64_t enqueue(std::uint16_t topic, std::vector<std::uint8_t> message, double now_s,
                         FrameType type = FrameType::kData,
                         std::optional<std::uint64_t> sequence = std::nullopt);
