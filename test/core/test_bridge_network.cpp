@@ -2,8 +2,8 @@
 // records what the sender put on the wire and cuts the connection once. Reliable messages arrive
 // exactly once and in order across the cut, the sender stays within its budget in every 1 s
 // window while scans saturate it, control messages overtake the scans, and a stranger's
-// connection is refused and counted without disturbing the link; on a mission clock, the
-// budget holds per mission second.
+// connection, a replayed HELLO and a flood of connections are refused and counted without
+// disturbing the link; on a mission clock, the budget holds per mission second.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -313,6 +313,52 @@ TEST(BridgeNetwork, FollowsTheMissionClockAtHalfSpeed) {
   EXPECT_NEAR(a.reports()[0].at_s - reported_at_s, took_s, 0.5);
   std::lock_guard<std::mutex> lock(warnings_mutex);
   for (const auto& w : warnings) ADD_FAILURE() << w;
+}
+
+// A flood of 200 connections that say nothing: 16 wait to be identified, the rest are refused
+// at once, and the team's link carries on meanwhile.
+TEST(BridgeNetwork, AConnectionFloodIsRefusedAndTheTeamLinkCarriesOn) {
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
+  Inbox at_b;
+  Bridge a(
+      params(port_a, "robot_b", port_b), "robot_a", [](auto&&...) {}, [](auto&&...) {});
+  Bridge b(
+      params(port_b, "robot_a", port_a), "robot_b",
+      [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+      [](auto&&...) {});
+  b.start();
+  a.start();
+  const TopicInfo offers = topic("inbox/offers", Priority::kControl);
+  ASSERT_TRUE(a.publish(offers, numbered(100, 0)));
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 20.0)) << "the link came up";
+
+  boost::asio::io_context io;
+  std::vector<boost::asio::ip::tcp::socket> flood;
+  for (int i = 0; i < 200; ++i) {
+    flood.emplace_back(io).connect(
+        {boost::asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port_b)});
+  }
+  for (std::uint32_t n = 1; n <= 20; ++n) a.publish(offers, numbered(100, n));
+  EXPECT_TRUE(at_b.waitFor("robot_a:inbox/offers", 21, 20.0)) << "the link carried on";
+  std::vector<LinkReport> reports;
+  for (int i = 0; i < 500; ++i) {  // b accepts on its own thread
+    reports = b.reports();
+    if (reports.size() == 2 &&
+        reports[1].drops["refused: too_many_unidentified"] + reports[1].drops["refused: silent"] >=
+            184) {
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(reports.size(), 2U);
+  // (On a machine slow enough, some of the 16 waiting time out as silent before the flood ends,
+  // and as many more wait in their place.)
+  EXPECT_LE(reports[1].drops["refused: too_many_unidentified"], 184U);
+  EXPECT_GE(
+      reports[1].drops["refused: too_many_unidentified"] + reports[1].drops["refused: silent"],
+      184U);
+  EXPECT_TRUE(reports[0].connected);
 }
 
 TEST(BridgeNetwork, APortInUseIsAnErrorNamingTheParameter) {
