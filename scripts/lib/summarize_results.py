@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""Summarises the JUnit XML files of one test run: a line per suite, then the closing line
-'N passed, N failed, N skipped'. Exits 1 on any failure or when no test ran.
+"""Summarises the JUnit XML files of one test run (or of several rounds, a directory each): a
+line per suite, then the closing line 'N passed, N failed, N skipped'. Exits 1 on any failure
+or when no test ran.
 
 rostest writes two files per test: rosunit-<name>.xml (the test node's own gtest cases) and
 rostest-<...>.xml (whether the node ran and reported). The second is counted only when it
@@ -27,11 +28,13 @@ def cases(path):
             yield "passed", case.get("name"), ""
 
 
-def main(results_dir):
+def main(results_dirs):
     totals = {"passed": 0, "failed": 0, "skipped": 0}
-    files = sorted(glob.glob(os.path.join(results_dir, "*.xml")))
+    files = [path for d in results_dirs for path in sorted(glob.glob(os.path.join(d, "*.xml")))]
     for path in files:
         name = os.path.basename(path)[:-4]
+        if len(results_dirs) > 1:
+            name = os.path.basename(os.path.dirname(path)) + "/" + name
         counts = {"passed": 0, "failed": 0, "skipped": 0}
         failures = []
         try:
@@ -42,7 +45,7 @@ def main(results_dir):
         except ET.ParseError as error:
             counts["failed"] += 1
             failures.append((name, "unreadable result file: %s" % error))
-        if name.startswith("rostest-"):
+        if os.path.basename(path).startswith("rostest-"):
             if not counts["failed"]:
                 continue
             counts["passed"] = counts["skipped"] = 0
@@ -59,4 +62,4 @@ def main(results_dir):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1]))
+    sys.exit(main(sys.argv[1:]))
