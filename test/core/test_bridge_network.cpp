@@ -17,6 +17,7 @@
 
 #include "ccir_mapping/core/transport/bridge.h"
 #include "ccir_mapping/core/transport/link_proxy.h"
+#include "numbered_bytes.h"
 
 namespace ccir_mapping::core::transport {
 namespace {
@@ -69,17 +70,8 @@ TopicInfo topic(const std::string& name, Priority priority) {
   return t;
 }
 
-std::vector<std::uint8_t> numbered(std::size_t size, std::uint32_t n) {
-  std::vector<std::uint8_t> bytes(size, static_cast<std::uint8_t>(n));
-  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<std::uint8_t>(n >> (8 * i));
-  return bytes;
-}
-
-std::uint32_t number(const std::vector<std::uint8_t>& bytes) {
-  std::uint32_t n = 0;
-  for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(bytes[i]) << (8 * i);
-  return n;
-}
+using test::number;
+using test::numbered;
 
 TEST(BridgeNetwork, ExactlyOnceWithinBudgetAcrossACutConnection) {
   const int port_a = freeLoopbackPort();

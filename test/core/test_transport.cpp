@@ -22,6 +22,7 @@
 #include "ccir_mapping/core/transport/reliable_outbox.h"
 #include "ccir_mapping/core/transport/sequence_filter.h"
 #include "ccir_mapping/core/transport/token_bucket.h"
+#include "numbered_bytes.h"
 
 namespace ccir_mapping::core::transport {
 namespace {
@@ -505,18 +506,8 @@ TEST(Compression, RoundTripsAndRefusesBombsAndGarbage) {
   EXPECT_TRUE(empty->empty());
 }
 
-/// `size` bytes starting with the little-endian number `n`.
-std::vector<std::uint8_t> numbered(std::size_t size, std::uint32_t n) {
-  std::vector<std::uint8_t> bytes(size, 0);
-  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<std::uint8_t>(n >> (8 * i));
-  return bytes;
-}
-
-std::uint32_t number(const std::vector<std::uint8_t>& bytes) {
-  std::uint32_t n = 0;
-  for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(bytes[i]) << (8 * i);
-  return n;
-}
+using test::number;
+using test::numbered;
 
 /// Two sessions joined by a byte pipe each way; a direction that is down drops what is on it.
 struct Pair {
