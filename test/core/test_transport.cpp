@@ -617,6 +617,10 @@ TEST(PeerSession, ALongOutageLosesNoReliableMessage) {
   link.a.disconnected();
   link.b.disconnected();
   run(5000, 65000, false);
+  // What waits for the link is reported as queued (LinkStats) though it is in the outbox.
+  EXPECT_EQ(link.a.queued(Priority::kControl), 1200U);
+  EXPECT_EQ(link.a.queuedBytes(Priority::kControl), 1200U * 200U);
+  EXPECT_EQ(link.a.queued(Priority::kBulk), 0U);
   link.a.connected(65.0);
   link.b.connected(65.0);
   run(65000, 75000, true);

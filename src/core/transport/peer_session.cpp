@@ -159,6 +159,16 @@ void PeerSession::connected(double now_s) {
   }
 }
 
+std::pair<std::size_t, std::size_t> PeerSession::inOutbox(Priority priority) const {
+  std::pair<std::size_t, std::size_t> waiting{0, 0};
+  for (std::size_t i = 0; i < topics_.size(); ++i) {
+    if (topics_[i].policy.priority != priority) continue;
+    waiting.first += outbox_.messages(static_cast<std::uint16_t>(i + 1));
+    waiting.second += outbox_.bytes(static_cast<std::uint16_t>(i + 1));
+  }
+  return waiting;
+}
+
 void PeerSession::disconnected() {
   connected_ = false;
   scheduler_.clear();

@@ -52,4 +52,18 @@ std::size_t ReliableOutbox::messages() const {
   return n;
 }
 
+std::size_t ReliableOutbox::messages(std::uint16_t topic) const {
+  const auto it = pending_.find(topic);
+  return it == pending_.end() ? 0 : it->second.size();
+}
+
+std::size_t ReliableOutbox::bytes(std::uint16_t topic) const {
+  const auto it = pending_.find(topic);
+  std::size_t n = 0;
+  if (it != pending_.end()) {
+    for (const auto& m : it->second) n += m.bytes.size();
+  }
+  return n;
+}
+
 }  // namespace ccir_mapping::core::transport

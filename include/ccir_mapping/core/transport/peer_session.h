@@ -20,6 +20,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ccir_mapping/core/transport/frame_codec.h"
@@ -117,8 +118,14 @@ class PeerSession {
   std::size_t partialInputBytes() const { return decoder_.buffered(); }
   const LinkCounters& counters() const { return scheduler_.counters(); }
   const SessionCounters& sessionCounters() const { return counters_; }
-  std::size_t queued(Priority priority) const { return scheduler_.queued(priority); }
-  std::size_t queuedBytes(Priority priority) const { return scheduler_.queuedBytes(priority); }
+  /// Messages (bytes) waiting to be sent in a class: queued on the connection, or with none up,
+  /// the reliable ones the next connection will send.
+  std::size_t queued(Priority priority) const {
+    return connected_ ? scheduler_.queued(priority) : inOutbox(priority).first;
+  }
+  std::size_t queuedBytes(Priority priority) const {
+    return connected_ ? scheduler_.queuedBytes(priority) : inOutbox(priority).second;
+  }
   double availableTokens(double now_s) const { return scheduler_.availableTokens(now_s); }
   std::uint64_t duplicatesDropped() const { return filter_.duplicates(); }
   /// Reliable messages the peer never got: given up by its outbox bound, seen as gaps here.
@@ -129,6 +136,8 @@ class PeerSession {
   static constexpr std::uint16_t kSessionTopic = 0;
 
   bool refuse(std::string reason);
+  /// Messages and bytes of a class's reliable topics in the outbox.
+  std::pair<std::size_t, std::size_t> inOutbox(Priority priority) const;
   void announce(std::uint16_t id, double now_s);
   /// A HELLO: checked, and the connection's keys derived; false when it is refused.
   bool greet(const std::vector<std::uint8_t>& payload, double now_s);

@@ -33,6 +33,9 @@ class ReliableOutbox {
 
   std::size_t bytes() const { return bytes_; }
   std::size_t messages() const;
+  /// What one topic holds: messages and their bytes.
+  std::size_t messages(std::uint16_t topic) const;
+  std::size_t bytes(std::uint16_t topic) const;
   std::uint64_t givenUp() const { return given_up_; }
 
  private:
