@@ -205,6 +205,7 @@ class BridgeMasters(Processes, unittest.TestCase):
             self.assertEqual(waited.returncode, 0, "rosmaster of %s did not come up" % robot)
 
         def start_robot(robot, config, at, settle_s=40.0 + self.outage_s):
+            """The robot's bridge and traffic node; returns the traffic node's process."""
             self.spawn("bridge_" + robot,
                        prefix[robot] + ["roslaunch", "ccir_mapping", "bridge.launch",
                                         "robot:=" + robot, "config:=" + config],
@@ -216,7 +217,9 @@ class BridgeMasters(Processes, unittest.TestCase):
                         "--cloud-bytes", str(self.cloud_bytes), "--settle-s", str(settle_s),
                         "--out", os.path.join(self.dir, "traffic_%s.json" % robot)],
                        masters[robot])
+            return self.processes[-1]
 
+        traffic = {}
         for robot in self.robots:
             peers = []
             for other in self.robots:
@@ -237,8 +240,7 @@ class BridgeMasters(Processes, unittest.TestCase):
                         "           {topic: outbox/state, priority: control},\n"
                         "           {topic: outbox/cloud, priority: bulk}]\n"
                         % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
-            start_robot(robot, config, start_at)
-        traffic = {r: p for r, p in zip(self.robots, [p for p in self.processes if "--peers" in p.args])}
+            traffic[robot] = start_robot(robot, config, start_at)
 
         restarted_at = None
         if self.restart:
@@ -255,14 +257,14 @@ class BridgeMasters(Processes, unittest.TestCase):
             restarted_at = time.time() + RESTART_TRAFFIC_AFTER_S
             os.rename(os.path.join(self.dir, "bridge_robot_b.log"),
                       os.path.join(self.dir, "bridge_robot_b_crashed.log"))
-            start_robot("robot_b", os.path.join(self.dir, "robot_b.yaml"), restarted_at,
-                        settle_s=10.0)
-            traffic["robot_b"] = self.processes[-1]
+            traffic["robot_b"] = start_robot("robot_b", os.path.join(self.dir, "robot_b.yaml"),
+                                             restarted_at, settle_s=10.0)
 
         for robot, process in traffic.items():
             try:
-                process.wait(timeout=max(start_at, restarted_at or 0) - time.time() + self.duration_s +
-                         60 + self.outage_s)
+                last_start = max(start_at, restarted_at or 0)
+                process.wait(
+                    timeout=last_start - time.time() + self.duration_s + 60 + self.outage_s)
             except subprocess.TimeoutExpired:
                 self.fail("traffic of %s did not finish:\n%s" % (robot, self.log_tail("traffic_" + robot)))
             self.assertEqual(process.returncode, 0, "traffic of %s failed:\n%s\nbridge:\n%s" % (
@@ -333,13 +335,12 @@ class BridgeMasters(Processes, unittest.TestCase):
                                      % (what, self.log_tail("bridge_" + robot)))
                 # Control latency, except for pings sent around the cut of a-b or robot_b's
                 # crash and restart.
+                since = cut_at - 1.0
                 if self.restart:
-                    around, since, until = "robot_b" in (peer, robot), cut_at - 1.0, restarted_at + 3.0
-                elif self.outage_s:
-                    around, since, until = ({peer, robot} == {"robot_a", "robot_b"}, cut_at - 1.0,
-                                            cut_at + self.outage_s + 3.0)
+                    around, until = "robot_b" in (peer, robot), restarted_at + 3.0
                 else:
-                    around, since, until = {peer, robot} == {"robot_a", "robot_b"}, cut_at - 1.0, cut_at + 3.0
+                    around = {peer, robot} == {"robot_a", "robot_b"}
+                    until = cut_at + self.outage_s + 3.0
                 all_latencies += [arrived - stamp for _, stamp, arrived in got["ping"]
                                   if not (around and since <= stamp <= until)]
         all_latencies.sort()

@@ -5,8 +5,9 @@ From a given wall time it publishes, for a given time, PointCloud2 "scans" on ou
 (incompressible bytes) and small control messages (std_msgs/Header) on outbox/ping, numbered in
 frame_id and stamped with the wall time of sending. It records what arrives on
 inbox/<peer>/cloud and inbox/<peer>/ping from each teammate until everything each teammate sent
-has arrived from its latest process (or a time limit passes). It also latches one message on outbox/state before the
-traffic; at the end a new subscriber to each teammate's inbox/<peer>/state must still get it.
+has arrived from its latest process (or a time limit passes). It also latches one message on
+outbox/state before the traffic; at the end a new subscriber to each teammate's
+inbox/<peer>/state must still get it.
 Writes what it saw as JSON."""
 import argparse
 import json
