@@ -1,8 +1,10 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Checks each cloud, lets it wait until it
-// can be placed (ScanPlacement: tf or odometry), hands it to core::preprocess::KeyframeStage,
-// which decides keyframes and filters them, and publishes them zero-copy.
+// can be placed (ScanPlacement: tf, odometry or lidar odometry, which it then broadcasts on tf),
+// hands it to core::preprocess::KeyframeStage, which decides keyframes and filters them, and
+// publishes them zero-copy.
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <pluginlib/class_list_macros.hpp>
 
@@ -28,6 +30,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
     stage_ = std::make_unique<KeyframeStage>(settings_.core);
     placement_ = std::make_unique<ScanPlacement>(settings_, nh.resolveName(topics::kOdometry));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(placement_->tf(), nh);
+    if (settings_.odom_source == "lidar") tf_broadcaster_.emplace();
     advertise<Keyframe>(topics::kKeyframes, topics::kKeyframeQueueSize);
     if (settings_.odom_source == "topic") {
       subscribe(topics::kOdometry, 100, &PreprocessorNodelet::onOdometry);
@@ -83,6 +86,11 @@ class PreprocessorNodelet final : public PipelineNodelet {
         dropScan(*placement.cloud, {"cannot place it", placement.why});
         continue;
       }
+      if (placement.notice) {
+        count(placement.notice->kind);
+        warnPerKind(placement.notice->kind, "%s", placement.notice->text.c_str());
+      }
+      if (placement.odometry_tf) tf_broadcaster_->sendTransform(*placement.odometry_tf);
       const PointCloud2& msg = *placement.cloud;
       conversions::toPcl(msg, &scan_);
       const auto result =
@@ -130,6 +138,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
   std::unique_ptr<ScanPlacement> placement_;  // with the scans waiting to be placed
   KeyframeStage::InputCloud scan_;            // conversion buffer, reused scan after scan
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::optional<tf2_ros::TransformBroadcaster> tf_broadcaster_;  // odom_source "lidar"
   ros::SteadyTimer tf_poll_timer_;
 };
 

@@ -116,8 +116,9 @@ void load(ParamReader& reader, const std::string& robot_name, SaveSettings& save
 void load(ParamReader& reader, PreprocessorSettings& config) {
   load(reader, config.frames);
   reader.read("odom_source", config.odom_source);
-  if (config.odom_source != "topic" && config.odom_source != "tf") {
-    reader.addError(core::notOneOf("odom_source", config.odom_source, "topic | tf"));
+  if (config.odom_source != "topic" && config.odom_source != "tf" &&
+      config.odom_source != "lidar") {
+    reader.addError(core::notOneOf("odom_source", config.odom_source, "topic | tf | lidar"));
   }
   reader.read("scan_queue_size", config.scan_queue_size);
   core::ParamCheck queue;
@@ -141,6 +142,16 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.read("keyframe_rotation_deg", p.keyframe_rotation_deg);
   reader.read("odom_tolerance_s", p.odom_tolerance_s);
   reader.addErrors(p.validate());
+  auto& l = config.lidar_odometry;
+  reader.read("lidar_voxel_m", l.voxel_m);
+  reader.read("lidar_min_range_m", l.min_range_m);
+  reader.read("lidar_local_map_scans", l.local_map_scans);
+  reader.read("lidar_local_map_step_m", l.local_map_step_m);
+  reader.read("lidar_local_map_step_deg", l.local_map_step_deg);
+  reader.read("lidar_max_correspondence_m", l.max_correspondence_m);
+  reader.read("lidar_max_iterations", l.max_iterations);
+  reader.read("lidar_max_fitness_m2", l.max_fitness_m2);
+  reader.addErrors(l.validate());
 }
 
 void load(ParamReader& reader, MatcherSettings& config) {

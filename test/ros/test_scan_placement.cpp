@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/scan_placement.h"
 
@@ -148,6 +149,55 @@ TEST(ScanPlacement, AScanThatCannotBePlacedIsGivenUpWithWhy) {
   EXPECT_FALSE(released[0].pose);
   EXPECT_EQ(released[0].why, "cannot place it: it has no frame_id");
   EXPECT_EQ(placement.waiting(), ScanPlacement::kMaxWaitingScans) << "it did not wait";
+}
+
+/// A 12 x 8 x 4 m room's walls, floor and ceiling (a point every 0.1 m) seen by a sensor at
+/// `x` along the room (its centre at 0), as a cloud in `frame`.
+sensor_msgs::PointCloud2::ConstPtr roomScan(double t, double x, const std::string& frame) {
+  core::LidarScan room;
+  const auto add = [&](double px, double py, double pz) {
+    room.points.push_back({float(px - x), float(py), float(pz), 1.0f, 0, 0.0f});
+  };
+  for (double a = -6.0; a <= 6.0; a += 0.1) {
+    for (double b = -4.0; b <= 4.0; b += 0.1) add(a, b, -1.0), add(a, b, 3.0);
+    for (double h = -1.0; h <= 3.0; h += 0.1) add(a, -4.0, h), add(a, 4.0, h);
+  }
+  for (double b = -4.0; b <= 4.0; b += 0.1) {
+    for (double h = -1.0; h <= 3.0; h += 0.1) add(-6.0, b, h), add(6.0, b, h);
+  }
+  auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+  conversions::toPointCloud2(room, frame, cloud.get());
+  cloud->header.stamp = ros::Time(t);
+  return cloud;
+}
+
+TEST(ScanPlacement, FromLidarOdometryAndTheSensorMount) {
+  ScanPlacement placement(settings("lidar"), "/r/odom");
+  std::string why;
+  EXPECT_TRUE(placement.placeable("r/base_link", ros::Time(1.0)));
+  EXPECT_FALSE(placement.placeable("r/velodyne", ros::Time(1.0), &why)) << "no mount yet";
+  EXPECT_TRUE(placement.wait(roomScan(1.0, 0.0, "r/velodyne")).empty());
+  placement.tf().setTransform(transform("r/base_link", "r/velodyne", 0.0, 0.2, 0.5), "test", true);
+
+  // The first scan: the sensor at its mount, base_link at the odometry frame's origin.
+  auto released = placement.wait(roomScan(1.1, 0.3, "r/velodyne"));
+  ASSERT_EQ(released.size(), 2U);
+  ASSERT_TRUE(released[0].pose) << released[0].why;
+  EXPECT_TRUE(released[0].pose->isApprox(
+      *conversions::toPose(transform("r/base_link", "r/velodyne", 0.0, 0.2, 0.5).transform)));
+  ASSERT_TRUE(released[0].odometry_tf);
+  EXPECT_EQ(released[0].odometry_tf->header.frame_id, "r/odom");
+  EXPECT_EQ(released[0].odometry_tf->child_frame_id, "r/base_link");
+  EXPECT_EQ(released[0].odometry_tf->header.stamp, ros::Time(1.0));
+  EXPECT_NEAR(released[0].odometry_tf->transform.translation.x, 0.0, 1e-6);
+
+  // The second, 0.3 m further along the room: registered there.
+  ASSERT_TRUE(released[1].pose) << released[1].why;
+  EXPECT_FALSE(released[1].notice) << released[1].notice->text;
+  EXPECT_NEAR(released[1].pose->translation().x(), 0.2 + 0.3, 0.02);
+  EXPECT_NEAR(released[1].pose->translation().z(), 0.5, 0.02);
+  EXPECT_NEAR(released[1].odometry_tf->transform.translation.x, 0.3, 0.02);
+  EXPECT_NEAR(released[1].odometry_tf->transform.translation.y, 0.0, 0.02);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "ccir_mapping/core/backend/backend_params.h"
 #include "ccir_mapping/core/information/mapper_params.h"
 #include "ccir_mapping/core/place_recognition/matcher_params.h"
+#include "ccir_mapping/core/preprocess/lidar_odometry_params.h"
 #include "ccir_mapping/core/preprocess/preprocessor_params.h"
 #include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/transport/bridge_params.h"
@@ -35,13 +36,14 @@ struct SaveSettings {
 struct PreprocessorSettings {
   RobotFrames frames;
   /// "topic": nav_msgs/Odometry on `odom` (base_frame in odom_frame); "tf": odom_frame ->
-  /// sensor frame from tf.
+  /// sensor frame from tf; "lidar": the scans themselves (lidar_odometry), broadcast on tf.
   std::string odom_source = "topic";
   /// Scans the velodyne_points subscriber holds while the Preprocessor is busy (roscpp drops
   /// the oldest of a full queue; the Preprocessor counts them as missed): 2 s of a VLP-16,
   /// enough for a manager that a busy machine stalls for a moment.
   int scan_queue_size = 20;
   core::preprocess::PreprocessorParams core;
+  core::preprocess::LidarOdometryParams lidar_odometry;
 };
 
 struct MatcherSettings {

@@ -1,18 +1,22 @@
 // Where a scan was taken: the sensor frame in the odometry frame at the scan's stamp, from tf
-// (odom_source "tf": odom_frame -> sensor frame at the stamp) or from odometry messages and the
+// (odom_source "tf": odom_frame -> sensor frame at the stamp), from odometry messages and the
 // sensor mount on tf (odom_source "topic": base_frame in odom_frame, interpolated; the mount is
-// static, so its latest transform is used). Scans wait here, in arrival order, until what
-// places them has arrived.
+// static, so its latest transform is used) or from the scans themselves and the mount
+// (odom_source "lidar": core::preprocess::LidarOdometry; odom_frame is base_frame at the first
+// scan). Scans wait here, in arrival order, until what places them has arrived.
 #pragma once
 
 #include <optional>
 #include <string>
 
+#include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 
+#include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/preprocess/lidar_odometry.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/preprocess/ordered_wait_queue.h"
 
@@ -44,7 +48,8 @@ class ScanPlacement {
   bool placeable(const std::string& sensor_frame, const ros::Time& stamp,
                  std::string* why = nullptr) const;
 
-  /// The sensor frame in odom_frame at `stamp`, or std::nullopt with the reason in `why`.
+  /// The sensor frame in odom_frame at `stamp` from tf or odometry, or std::nullopt with the
+  /// reason in `why`.
   std::optional<core::Pose3> sensorPose(const std::string& sensor_frame, const ros::Time& stamp,
                                         std::string* why) const;
 
@@ -53,6 +58,10 @@ class ScanPlacement {
     sensor_msgs::PointCloud2::ConstPtr cloud;
     std::optional<core::Pose3> pose;
     std::string why;
+    /// odom_source "lidar": odom_frame -> base_frame at the scan, for tf (the Preprocessor is
+    /// the robot's odometry then), and what was odd about the registration.
+    std::optional<geometry_msgs::TransformStamped> odometry_tf;
+    std::optional<core::Notice> notice;
   };
   /// Scans that wait at most: two seconds of a VLP-16 at 10 Hz.
   static constexpr std::size_t kMaxWaitingScans = 20;
@@ -67,11 +76,16 @@ class ScanPlacement {
 
  private:
   Placement givenUp(const sensor_msgs::PointCloud2::ConstPtr& cloud, const char* context) const;
+  /// base_frame -> sensor frame (static: the latest).
+  std::optional<core::Pose3> mount(const std::string& sensor_frame, std::string* why) const;
+  Placement placeByLidar(const sensor_msgs::PointCloud2::ConstPtr& cloud);
 
   bool from_tf_;
   std::string odom_frame_, base_frame_, odometry_topic_;
   double odom_tolerance_s_;
   core::preprocess::OdometryBuffer odometry_;
+  std::unique_ptr<core::preprocess::LidarOdometry> lidar_;  // odom_source "lidar" only
+  core::preprocess::LidarOdometry::Cloud lidar_scan_;       // conversion buffer
   tf2_ros::Buffer tf_;
   core::preprocess::OrderedWaitQueue<sensor_msgs::PointCloud2::ConstPtr> waiting_{kMaxWaitingScans};
 };
