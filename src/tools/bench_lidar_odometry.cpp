@@ -14,6 +14,7 @@
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/preprocess/lidar_odometry.h"
+#include "ccir_mapping/core/preprocess/lidar_scan_cloud.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/simulation/mission.h"
 #include "ccir_mapping/core/velodyne/velodyne_pcap_reader.h"
@@ -28,6 +29,7 @@ using ccir_mapping::core::Stamp;
 using ccir_mapping::core::preprocess::LidarOdometry;
 using ccir_mapping::core::preprocess::LidarOdometryParams;
 using ccir_mapping::core::preprocess::OdometryBuffer;
+using ccir_mapping::core::preprocess::toCloud;
 
 namespace {
 
@@ -74,17 +76,6 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
   if (o->duration_s < 1.0)
     return tools::usageError("bench_lidar_odometry", "need --duration-s >= 1");
   return std::nullopt;
-}
-
-LidarOdometry::Cloud toCloud(const LidarScan& scan) {
-  LidarOdometry::Cloud cloud;
-  cloud.reserve(scan.points.size());
-  for (const auto& p : scan.points) {
-    pcl::PointXYZI q;
-    q.x = p.x, q.y = p.y, q.z = p.z, q.intensity = p.intensity;
-    cloud.push_back(q);
-  }
-  return cloud;
 }
 
 /// Drift of `estimate` against `truth` (the same poses' stamps, any frames).

@@ -6,21 +6,12 @@
 #include <stdexcept>
 
 #include "ccir_mapping/core/preprocess/lidar_odometry.h"
+#include "ccir_mapping/core/preprocess/lidar_scan_cloud.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/core/simulation/mission.h"
 
 namespace ccir_mapping::core::preprocess {
 namespace {
-
-LidarOdometry::Cloud toCloud(const LidarScan& scan) {
-  LidarOdometry::Cloud cloud;
-  for (const auto& p : scan.points) {
-    pcl::PointXYZI q;
-    q.x = p.x, q.y = p.y, q.z = p.z, q.intensity = p.intensity;
-    cloud.push_back(q);
-  }
-  return cloud;
-}
 
 /// The first scans of a one-robot mine mission with the true sensor pose at each.
 class Drive : public simulation::RecordingSink {

@@ -2,6 +2,7 @@
 
 #include "ccir_mapping/core/common/cpu_time.h"
 #include "ccir_mapping/core/preprocess/keyframe_stage.h"
+#include "ccir_mapping/core/preprocess/lidar_scan_cloud.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 
 namespace ccir_mapping::core::runner {
@@ -9,25 +10,6 @@ namespace ccir_mapping::core::runner {
 namespace {
 
 struct Stopped {};  // thrown through Mission::record to end it early
-
-pcl::PointCloud<pcl::PointXYZI> toCloud(const LidarScan& scan) {
-  pcl::PointCloud<pcl::PointXYZI> cloud;
-  cloud.reserve(scan.points.size());
-  for (const auto& p : scan.points) {
-    pcl::PointXYZI q;
-    q.x = p.x;
-    q.y = p.y;
-    q.z = p.z;
-    q.intensity = p.intensity;
-    cloud.push_back(q);
-  }
-  if (scan.organized) {
-    cloud.width = static_cast<std::uint32_t>(scan.columns);
-    cloud.height = static_cast<std::uint32_t>(scan.rings);
-  }
-  cloud.is_dense = !scan.organized;
-  return cloud;
-}
 
 }  // namespace
 
@@ -54,7 +36,7 @@ class KeyframeFeed::Sink final : public simulation::RecordingSink {
       ++dropped_;
     } else {
       const Pose3 sensor = *odom * mount_;
-      auto result = stage_.process(scan.stamp, sensor, toCloud(scan));
+      auto result = stage_.process(scan.stamp, sensor, preprocess::toCloud(scan));
       if (result.dropped()) ++dropped_;
       if (result.outcome == preprocess::KeyframeStage::Outcome::kKeyframe) {
         keyframe = SimKeyframe{scan.stamp,   published_s, result.decision,
