@@ -47,6 +47,25 @@ const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& cloud,
   return nullptr;
 }
 
+/// Bytes of one value of a PointField datatype; 1 for an unknown one (its offset must still
+/// lie inside the point).
+std::uint64_t valueBytes(std::uint8_t datatype) {
+  using F = sensor_msgs::PointField;
+  switch (datatype) {
+    case F::INT16:
+    case F::UINT16:
+      return 2;
+    case F::INT32:
+    case F::UINT32:
+    case F::FLOAT32:
+      return 4;
+    case F::FLOAT64:
+      return 8;
+    default:
+      return 1;
+  }
+}
+
 }  // namespace
 
 core::Stamp toStamp(const ros::Time& time) { return static_cast<core::Stamp>(time.toNSec()); }
@@ -382,12 +401,21 @@ std::optional<std::string> checkCloud(const sensor_msgs::PointCloud2& cloud, Clo
            std::to_string(std::uint64_t{cloud.row_step} * cloud.height) + " (" +
            std::to_string(points) + " points)";
   }
+  // Every field inside the point (in 64 bits: an offset near 2^32 must not wrap around), so
+  // that neither these conversions nor PCL's, which map fields by name, read beyond it.
+  for (const auto& field : cloud.fields) {
+    const std::uint64_t end = std::uint64_t{field.offset} +
+                              std::max<std::uint64_t>(field.count, 1) * valueBytes(field.datatype);
+    if (end > cloud.point_step) {
+      return "field '" + field.name + "' ends at byte " + std::to_string(end) +
+             ", beyond point_step " + std::to_string(cloud.point_step);
+    }
+  }
   for (const char* axis : {"x", "y", "z"}) {
     const sensor_msgs::PointField* field = findField(cloud, axis);
     if (!field) return std::string("field '") + axis + "' is missing";
-    if (field->datatype != sensor_msgs::PointField::FLOAT32 || field->count != 1 ||
-        field->offset + 4 > cloud.point_step) {
-      return std::string("field '") + axis + "' is not one FLOAT32 inside point_step";
+    if (field->datatype != sensor_msgs::PointField::FLOAT32 || field->count != 1) {
+      return std::string("field '") + axis + "' is not one FLOAT32";
     }
   }
   if (fields) {
@@ -408,7 +436,7 @@ void toPcl(const sensor_msgs::PointCloud2& cloud, pcl::PointCloud<pcl::PointXYZI
                              : type == sensor_msgs::PointField::UINT16 ? 2
                              : type == sensor_msgs::PointField::UINT8  ? 1
                                                                        : 0;
-  const bool has_intensity = size > 0 && intensity->offset + size <= cloud.point_step;
+  const bool has_intensity = size > 0;  // inside the point: checkCloud
   out->resize(std::size_t{cloud.width} * cloud.height);
   out->width = cloud.width;
   out->height = cloud.height;
@@ -442,9 +470,8 @@ std::optional<std::string> toKeyframeCloud(const sensor_msgs::PointCloud2& cloud
   if (auto error = checkCloud(cloud, nullptr)) return error;
   for (const char* name : {"intensity", "normal_x", "normal_y", "normal_z"}) {
     const sensor_msgs::PointField* field = findField(cloud, name);
-    if (!field || field->datatype != sensor_msgs::PointField::FLOAT32 || field->count != 1 ||
-        field->offset + 4 > cloud.point_step) {
-      return std::string("field '") + name + "' is missing or not one FLOAT32 inside point_step";
+    if (!field || field->datatype != sensor_msgs::PointField::FLOAT32 || field->count != 1) {
+      return std::string("field '") + name + "' is missing or not one FLOAT32";
     }
   }
   pcl::fromROSMsg(cloud, *out);  // fields and buffer size checked above

@@ -65,6 +65,12 @@ int main(int argc, char** argv) {
     for (auto& b : bytes) b = static_cast<std::uint8_t>(draw());
     write(out / "broker" / ("drawn_" + std::to_string(length)), bytes);
   }
+  // Clouds: the layout too is drawn from the input, so drawn bytes make clouds.
+  for (const std::size_t length : {32, 256, 2048}) {
+    std::vector<std::uint8_t> bytes(length);
+    for (auto& b : bytes) b = static_cast<std::uint8_t>(draw());
+    write(out / "cloud_conversion" / ("drawn_" + std::to_string(length)), bytes);
+  }
   // Scans: 40 points on a wall, as points and as a two-Gaussian mixture.
   std::vector<core::transport::ScanPoint> points;
   for (int i = 0; i < 40; ++i) points.push_back({float(i % 8), 3.0f, float(i / 8), 0, -1, 0, 9});

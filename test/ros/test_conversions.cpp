@@ -88,11 +88,44 @@ TEST(Conversions, RejectsMalformedClouds) {
 
   auto double_x = velodyneCloud(10);
   double_x.fields[0].datatype = sensor_msgs::PointField::FLOAT64;
-  EXPECT_EQ(*checkCloud(double_x, nullptr), "field 'x' is not one FLOAT32 inside point_step");
+  EXPECT_EQ(*checkCloud(double_x, nullptr), "field 'x' is not one FLOAT32");
 
   auto bad_row = velodyneCloud(10);
   bad_row.row_step = 4;
   EXPECT_NE(checkCloud(bad_row, nullptr)->find("row_step"), std::string::npos);
+}
+
+// Found by fuzz_cloud_conversion: an offset near 2^32 wrapped around in `offset + 4 <=
+// point_step`, so the cloud passed and toPcl read 4 GB beyond the point (the manager crashed).
+// Any field PCL could map (curvature, ...) must lie inside the point too.
+TEST(Conversions, RefusesFieldsBeyondThePointWithoutWrappingAround) {
+  auto wrapped_x = velodyneCloud(10);
+  wrapped_x.fields[0].offset = 0xFFFFFFFEu;
+  EXPECT_EQ(*checkCloud(wrapped_x, nullptr),
+            "field 'x' ends at byte 4294967298, beyond point_step 22");
+  auto wrapped_intensity = velodyneCloud(10);
+  wrapped_intensity.fields[3].offset = 0xFFFFFFFFu;
+  EXPECT_TRUE(checkCloud(wrapped_intensity, nullptr));
+  auto long_ring = velodyneCloud(10);
+  long_ring.fields[4].count = 0x80000000u;  // count * 2 bytes wraps in 32 bits
+  EXPECT_TRUE(checkCloud(long_ring, nullptr));
+  auto curvature = velodyneCloud(10);
+  sensor_msgs::PointField field;
+  field.name = "curvature";
+  field.datatype = sensor_msgs::PointField::FLOAT32;
+  field.count = 1;
+  field.offset = 20;  // 20 + 4 > 22
+  curvature.fields.push_back(field);
+  EXPECT_EQ(*checkCloud(curvature, nullptr),
+            "field 'curvature' ends at byte 24, beyond point_step 22");
+  Keyframe keyframe;
+  keyframe.odom_pose.orientation.w = 1.0;
+  keyframe.cloud = curvature;
+  pcl::PointCloud<pcl::PointXYZ> points;
+  core::Pose3 pose;
+  EXPECT_TRUE(toScanPoints(keyframe, &points, &pose));
+  pcl::PointCloud<pcl::PointXYZINormal> full;
+  EXPECT_TRUE(toKeyframeCloud(curvature, &full));
 }
 
 TEST(Conversions, ToPclKeepsLayoutAndReadsIntensityOfAnyWidth) {
