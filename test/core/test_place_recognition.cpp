@@ -269,8 +269,19 @@ TEST(Vocabulary, KMeansFindsBlobsQuantizesAndRoundTrips) {
 
   const ChowLiuTree tree = ChowLiuTree::learn({{0, 1}, {1, 2}, {0, 2, 3}}, 5);
   tree.save(path.string(), vocabulary.hash());
-  EXPECT_EQ(ChowLiuTree::load(path.string(), vocabulary.hash()).size(), 5U);
-  EXPECT_THROW(ChowLiuTree::load(path.string(), "another"), std::runtime_error);
+  EXPECT_EQ(ChowLiuTree::load(path.string(), vocabulary.hash(), 5).size(), 5U);
+  EXPECT_THROW(ChowLiuTree::load(path.string(), "another", 5), std::runtime_error);
+  // Regressions (fuzz_place_model): a tree of another size than its vocabulary, and a probability
+  // of 0 or beyond 1, which made FAB-MAP's log-likelihoods infinite, are refused at load.
+  EXPECT_THROW(ChowLiuTree::load(path.string(), vocabulary.hash(), 500), std::runtime_error);
+  std::ofstream(path) << "ccir_mapping chow_liu_tree 1 2 " << vocabulary.hash()
+                      << "\n0 0.5 0.5 0.5\n0 0 745 0.99\n";
+  try {
+    ChowLiuTree::load(path.string(), vocabulary.hash(), 2);
+    ADD_FAILURE() << "a marginal of 0 was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad entry for word 1"), std::string::npos) << e.what();
+  }
   std::filesystem::remove(path);
 }
 

@@ -12,6 +12,7 @@
 
 #include "ccir_mapping/core/hgmm/gaussian_mixture.h"
 #include "ccir_mapping/core/hgmm/mixture_codec.h"
+#include "ccir_mapping/core/place_recognition/place_model.h"
 #include "ccir_mapping/core/place_recognition/vocabulary.h"
 #include "ccir_mapping/core/transport/scan_codec.h"
 
@@ -33,6 +34,19 @@ void write(const fs::path& file, const std::string& text) {
 
 /// fuzz_scan_decoding's input: the encoding's bytes, then what FuzzedDataProvider reads from the
 /// end (seed, max_points, count, encoding flag; multi-byte values low byte first).
+std::string readText(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// FuzzedDataProvider's ConsumeRandomLengthString: each backslash doubled, ended by a backslash and
+/// a character other than a backslash.
+std::string randomLengthString(const std::string& text) {
+  std::string out;
+  for (const char c : text) out += c == '\\' ? std::string(2, c) : std::string(1, c);
+  return out + "\\ ";
+}
+
 std::vector<std::uint8_t> scanInput(std::vector<std::uint8_t> bytes, bool gmm,
                                     std::uint16_t count) {
   for (int i = 0; i < 8; ++i) bytes.push_back(std::uint8_t(i));  // seed
@@ -97,6 +111,19 @@ int main(int argc, char** argv) {
   const fs::path vocabulary = out / "vocabulary" / "three_words.bin";
   fs::create_directories(vocabulary.parent_path());
   core::place_recognition::Vocabulary(words).save(vocabulary.string());
+  // Place model: the files train_place_model writes for that vocabulary (fuzz_place_model
+  // keeps the vocabulary and reads the tree, the samples and model.yaml from its input).
+  const std::vector<core::place_recognition::WordSet> samples{{0, 1}, {1, 2}, {0}, {0, 1, 2}};
+  core::place_recognition::Vocabulary three(words);
+  auto tree = core::place_recognition::ChowLiuTree::learn(samples, three.size());
+  const fs::path model_dir = out / "place_model_files";
+  core::place_recognition::PlaceModel{std::move(three), std::move(tree), samples, {}}.save(
+      model_dir.string(), "");
+  write(out / "place_model" / "trained",
+        randomLengthString(readText(model_dir / "chow_liu_tree.txt")) +
+            randomLengthString(readText(model_dir / "samples.txt")) +
+            readText(model_dir / "model.yaml"));
+  fs::remove_all(model_dir);
   // pcap: the global header and the first 12 records (~15 KB: a slice of a rotation).
   if (argc > 2) {
     std::ifstream in(argv[2], std::ios::binary);

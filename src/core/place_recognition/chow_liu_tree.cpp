@@ -136,7 +136,8 @@ void ChowLiuTree::save(const std::string& path, const std::string& vocabulary_ha
   if (!out) throw std::runtime_error("cannot write the Chow-Liu tree " + path);
 }
 
-ChowLiuTree ChowLiuTree::load(const std::string& path, const std::string& vocabulary_hash) {
+ChowLiuTree ChowLiuTree::load(const std::string& path, const std::string& vocabulary_hash,
+                              std::size_t vocabulary_size) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot read the Chow-Liu tree " + path);
   std::string magic;
@@ -152,15 +153,23 @@ ChowLiuTree ChowLiuTree::load(const std::string& path, const std::string& vocabu
     throw std::runtime_error(path + " was learned with vocabulary " + hash + ", not " +
                              vocabulary_hash);
   }
+  if (count != vocabulary_size) {  // before allocating what the header announces
+    throw std::runtime_error(path + " has " + std::to_string(count) + " words, its vocabulary " +
+                             std::to_string(vocabulary_size));
+  }
   ChowLiuTree tree;
   tree.parent_.resize(count);
   tree.marginal_.resize(count);
   tree.given_parent_on_.resize(count);
   tree.given_parent_off_.resize(count);
   for (std::size_t q = 0; q < count; ++q) {
+    // Probabilities strictly inside (0, 1), as learn() smooths them: FAB-MAP takes their logs.
+    const auto probability = [](double p) { return p > 0.0 && p < 1.0; };
     if (!(in >> tree.parent_[q] >> tree.marginal_[q] >> tree.given_parent_on_[q] >>
           tree.given_parent_off_[q]) ||
-        tree.parent_[q] < 0 || static_cast<std::size_t>(tree.parent_[q]) >= count) {
+        tree.parent_[q] < 0 || static_cast<std::size_t>(tree.parent_[q]) >= count ||
+        !probability(tree.marginal_[q]) || !probability(tree.given_parent_on_[q]) ||
+        !probability(tree.given_parent_off_[q])) {
       throw std::runtime_error(path + ": bad entry for word " + std::to_string(q));
     }
   }

@@ -87,7 +87,8 @@ std::shared_ptr<const PlaceModel> PlaceModel::load(const std::string& dir) {
     throw std::runtime_error(dir + " is not a directory (a train_place_model output)");
   }
   Vocabulary vocabulary = Vocabulary::load((root / "vocabulary.bin").string());
-  ChowLiuTree tree = ChowLiuTree::load((root / "chow_liu_tree.txt").string(), vocabulary.hash());
+  ChowLiuTree tree = ChowLiuTree::load((root / "chow_liu_tree.txt").string(), vocabulary.hash(),
+                                       vocabulary.size());
   std::vector<WordSet> samples = readSamples(root / "samples.txt", vocabulary);
   const features::FeatureParams params = readFeatureParams(root / "model.yaml", vocabulary);
   return std::make_shared<const PlaceModel>(

@@ -37,9 +37,11 @@ class ChowLiuTree {
 
   /// "ccir_mapping chow_liu_tree 1 <words> <vocabulary hash>" then one line per word: parent,
   /// marginal, conditional given parent on, given parent off. Throws std::runtime_error naming the
-  /// file; load() also when the vocabulary hash differs from `vocabulary_hash`.
+  /// file; load() also when the vocabulary hash differs from `vocabulary_hash`, the words from
+  /// `vocabulary_size`, or a probability is not strictly inside (0, 1).
   void save(const std::string& path, const std::string& vocabulary_hash) const;
-  static ChowLiuTree load(const std::string& path, const std::string& vocabulary_hash);
+  static ChowLiuTree load(const std::string& path, const std::string& vocabulary_hash,
+                          std::size_t vocabulary_size);
 
  private:
   void linkChildren();
