@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <map>
@@ -351,6 +352,96 @@ TEST(BridgeNetwork, AConnectionFloodIsRefusedAndTheTeamLinkCarriesOn) {
       reports[1].drops["refused: too_many_unidentified"] + reports[1].drops["refused: silent"],
       184U);
   EXPECT_TRUE(reports[0].connected);
+}
+
+// A teammate that sends at line rate (its budget set a thousand times higher) and a stranger
+// writing garbage as fast as it can connect: the victim reads the teammate no faster than twice
+// its own budget (TCP holds the rest back), refuses the stranger, and its honest link carries
+// its traffic both ways meanwhile.
+TEST(BridgeNetwork, APeerSendingAtLineRateIsHeldBackAndTheHonestLinkCarriesOn) {
+  const int port_a = freeLoopbackPort();
+  const int port_b = freeLoopbackPort();
+  const int port_c = freeLoopbackPort();
+  Inbox at_a, at_b;
+  BridgeParams pb = params(port_b, "robot_a", port_a);
+  pb.peers.push_back({"robot_c", "127.0.0.1", port_c});
+  BridgeParams pc = params(port_c, "robot_b", port_b);
+  pc.budget_bytes_per_s = pc.total_budget_bytes_per_s = 1e8;
+  Bridge a(
+      params(port_a, "robot_b", port_b), "robot_a",
+      [&](const std::string& peer, InboxMessage m) { at_a.add(peer, std::move(m)); },
+      [](auto&&...) {});
+  Bridge b(
+      pb, "robot_b", [&](const std::string& peer, InboxMessage m) { at_b.add(peer, std::move(m)); },
+      [](auto&&...) {});
+  Bridge c(
+      pc, "robot_c", [](auto&&...) {}, [](auto&&...) {});
+  a.start();
+  b.start();
+  c.start();
+  const TopicInfo offers = topic("inbox/offers", Priority::kControl);
+  const TopicInfo scans = topic("inbox/scans", Priority::kBulk);
+  ASSERT_TRUE(a.publish(offers, numbered(100, 0)));
+  ASSERT_TRUE(c.publish(scans, numbered(15000, 0)));
+  ASSERT_TRUE(at_b.waitFor("robot_a:inbox/offers", 1, 20.0)) << "a's link came up";
+  ASSERT_TRUE(at_b.waitFor("robot_c:inbox/scans", 1, 20.0)) << "c's link came up";
+  const auto received_from_c = [&b] {
+    for (const auto& report : b.reports()) {
+      if (report.peer == "robot_c") return report.received.bytes_received;
+    }
+    return std::uint64_t{0};
+  };
+
+  std::atomic<bool> stop{false};
+  const auto start = Clock::now();
+  const std::uint64_t c_before = received_from_c();
+  std::thread line_rate([&] {
+    for (std::uint32_t n = 1; !stop; ++n) {
+      c.publish(scans, numbered(15000, n));
+      if (n % 100 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // 150 MB/s
+    }
+  });
+  std::atomic<int> stranger_connections{0};
+  std::thread stranger([&] {
+    boost::asio::io_context io;
+    const std::vector<std::uint8_t> garbage(65536, 0xa5);
+    while (!stop) {
+      boost::asio::ip::tcp::socket socket(io);
+      boost::system::error_code ec;
+      socket.connect(
+          {boost::asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port_b)}, ec);
+      if (!ec) boost::asio::write(socket, boost::asio::buffer(garbage), ec);
+      ++stranger_connections;
+    }
+  });
+
+  // The honest traffic: a's 30 scans of 10 KB (3 s of its budget) and 30 offers, b's 30 offers.
+  for (std::uint32_t n = 1; n <= 30; ++n) {
+    a.publish(scans, numbered(10000, n));
+    a.publish(offers, numbered(100, n));
+    b.publish(offers, numbered(100, n), "robot_a");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const bool offers_reached_b = at_b.waitFor("robot_a:inbox/offers", 31, 60.0);
+  const bool offers_reached_a = at_a.waitFor("robot_b:inbox/offers", 30, 60.0);
+  const bool scans_reached_b = at_b.waitFor("robot_a:inbox/scans", 30, 60.0);
+  const double took_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const std::uint64_t from_c = received_from_c() - c_before;
+  stop = true;
+  line_rate.join();
+  stranger.join();
+
+  EXPECT_TRUE(offers_reached_b && offers_reached_a && scans_reached_b)
+      << "the honest link carried its traffic both ways";
+  // The documented bound (README): twice the budget, in bursts of twice burst_bytes and 64 KB.
+  const double read_burst = 2.0 * pb.burst_bytes + 65536;
+  EXPECT_LE(from_c, read_burst + 2.0 * pb.budget_bytes_per_s * took_s)
+      << "b read c no faster than twice its budget over " << took_s << " s";
+  EXPECT_GT(c.reports()[0].sent.dropped_queue_full, 0U) << "c had more to send than it could";
+  EXPECT_GT(stranger_connections, 0);
+  EXPECT_GE(b.reports().back().drops["refused: bad magic"], 1U);
+  RecordProperty("honest_traffic_ms", static_cast<int>(1000 * took_s));
+  RecordProperty("read_from_line_rate_peer_bytes_per_s", static_cast<int>(from_c / took_s));
 }
 
 TEST(BridgeNetwork, APortInUseIsAnErrorNamingTheParameter) {

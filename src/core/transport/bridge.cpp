@@ -61,6 +61,10 @@ Bridge::Bridge(const BridgeParams& params, const std::string& own_robot, InboxHa
                        PeerSession(own_robot, peer.name, params.team_key, session, t)});
     link->session.shareBucket(total);
     link->dial_timer = std::make_unique<asio::steady_timer>(context.io);
+    link->read_bucket = std::make_unique<TokenBucket>(
+        Bridge::kReadShare * params.budget_bytes_per_s,
+        Bridge::kReadShare * params.burst_bytes + Bridge::kReadChunkBytes, t);
+    link->read_timer = std::make_unique<asio::steady_timer>(context.io);
     context.links.push_back(std::move(link));
   }
 }

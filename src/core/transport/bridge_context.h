@@ -16,6 +16,7 @@
 #include <boost/asio.hpp>
 
 #include "ccir_mapping/core/transport/bridge.h"
+#include "ccir_mapping/core/transport/token_bucket.h"
 
 namespace ccir_mapping::core::transport {
 
@@ -38,6 +39,9 @@ struct BridgeLink {
   /// Streams refused and connections ended inside a frame, by reason.
   std::map<std::string, std::uint64_t> refused;
   std::unique_ptr<asio::steady_timer> dial_timer;
+  /// What the peer may make this side read: BridgePump::read waits for it.
+  std::unique_ptr<TokenBucket> read_bucket;
+  std::unique_ptr<asio::steady_timer> read_timer;
 };
 
 struct BridgeContext {

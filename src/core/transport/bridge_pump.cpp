@@ -6,7 +6,8 @@ namespace ccir_mapping::core::transport {
 
 namespace {
 
-constexpr std::size_t kReadChunkBytes = 65536;
+// A read waits until the peer may make this side read this much (a frame header and more).
+constexpr double kMinReadBytes = 1500.0;
 // With a clock of unknown speed (mission time), a sender with something queued looks at it this
 // often (wall seconds; with nothing queued it waits for the next message), and the keep-alives
 // (every peer_timeout_s / 3 of it) this often, which follows replays up to 10 x real time.
@@ -39,8 +40,21 @@ bool BridgePump::input(BridgeLink& link, const std::uint8_t* data, std::size_t n
 }
 
 void BridgePump::read(BridgeLink& link) {
-  auto chunk = std::make_shared<std::vector<std::uint8_t>>(kReadChunkBytes);
   const auto generation = link.generation;
+  const double t = context_.now();
+  const double allowed = link.read_bucket->tokens(t);
+  if (allowed < kMinReadBytes) {  // TCP holds the peer back meanwhile
+    link.read_timer->expires_after(BridgeContext::after(
+        context_.clock ? kClockPollS : link.read_bucket->delayFor(kMinReadBytes, t)));
+    link.read_timer->async_wait([this, &link, generation](const boost::system::error_code& ec) {
+      if (ec) return;
+      std::lock_guard<std::mutex> lock(context_.mutex);
+      if (generation == link.generation) read(link);
+    });
+    return;
+  }
+  auto chunk = std::make_shared<std::vector<std::uint8_t>>(
+      std::min(Bridge::kReadChunkBytes, static_cast<std::size_t>(allowed)));
   link.socket->async_read_some(
       asio::buffer(*chunk),
       [this, &link, chunk, generation](const boost::system::error_code& ec, std::size_t n) {
@@ -50,6 +64,7 @@ void BridgePump::read(BridgeLink& link) {
           if (generation != link.generation) return;
           if (ec)
             return close_(link, ec == asio::error::eof ? "closed by the peer" : ec.message(), "");
+          link.read_bucket->tryConsume(n, context_.now());  // n <= tokens, which only grow
           if (!input(link, chunk->data(), n, inbox)) return;
           read(link);
           pump();  // acknowledgements

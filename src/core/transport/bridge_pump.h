@@ -25,7 +25,8 @@ class BridgePump {
   /// (the link closed) when the session refused the stream.
   bool input(BridgeLink& link, const std::uint8_t* data, std::size_t n,
              std::vector<InboxMessage>& inbox);
-  /// Reads the link's socket until its connection ends, delivering what arrives.
+  /// Reads the link's socket until its connection ends, delivering what arrives, no faster than
+  /// its read bucket allows.
   void read(BridgeLink& link);
   /// Writes what the sessions may send now, a frame per link in turn, and wakes up again when
   /// the next frame may go.

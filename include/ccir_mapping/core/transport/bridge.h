@@ -4,8 +4,9 @@
 // does not listen dials everyone) and redials with exponential backoff, and matches an accepted
 // connection to its peer by its first frame, an authenticated HELLO; BridgePump moves bytes
 // between sockets and sessions, the links sharing the total budget and taking turns a frame at a
-// time, and closes a link silent for peer_timeout_s. Nothing a peer sends can stop the thread: a
-// refused stream closes its connection and is counted by reason.
+// time, reads each peer no faster than twice the link's budget, and closes a link silent for
+// peer_timeout_s. Nothing a peer sends can stop the thread: a refused stream closes its
+// connection and is counted by reason, and one sending at line rate is held back by TCP.
 #pragma once
 
 #include <cstdint>
@@ -47,6 +48,13 @@ class Bridge {
   /// A link came up or a peer restarted (false), or something went wrong (true): closed,
   /// refused, unresolvable.
   using LogHandler = std::function<void(bool warning, const std::string& text)>;
+
+  /// A peer is read at most kReadShare times as fast as this side's budget_bytes_per_s lets it
+  /// send, in bursts of kReadShare * burst_bytes + kReadChunkBytes: a teammate configured
+  /// alike never meets the limit; one sending at line rate is held back by TCP's flow control,
+  /// losing nothing, and cannot take the bridge's thread from the other links.
+  static constexpr double kReadShare = 2.0;
+  static constexpr std::size_t kReadChunkBytes = 65536;
 
   /// Seconds on the clock budgets, keep-alives, silence and queue ages follow.
   using Clock = std::function<double()>;
