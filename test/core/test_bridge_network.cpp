@@ -3,7 +3,8 @@
 // exactly once and in order across the cut, the sender stays within its budget in every 1 s
 // window while scans saturate it, control messages overtake the scans, and a stranger's
 // connection, a replayed HELLO and a flood of connections are refused and counted without
-// disturbing the link; on a mission clock, the budget holds per mission second.
+// disturbing the link; a teammate sending at line rate is read no faster than twice the budget;
+// on a mission clock, the budget holds per mission second.
 #include <gtest/gtest.h>
 
 #include <algorithm>
