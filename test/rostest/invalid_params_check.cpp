@@ -46,9 +46,9 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
 
   // /rosout is not latched: load the nodelets only once this test hears the manager's log.
   ASSERT_TRUE(ros::service::waitForService("/manager/load_nodelet", ros::Duration(30.0)));
-  ASSERT_TRUE(waitFor([&] { return log_sub.getNumPublishers() >= 2; }, 30.0))
-      << "not connected to the manager's /rosout (publishers: " << log_sub.getNumPublishers()
-      << ")";
+  ASSERT_TRUE(waitFor([&] { return ccir_mapping::testing::linkedToAllPublishers(log_sub); }, 30.0))
+      << "not linked to every /rosout publisher (" << log_sub.getNumPublishers() << " of "
+      << ccir_mapping::testing::registeredPublishers("/rosout") << ")";
   const std::pair<const char*, const char*> nodelets[] = {{"preprocessor", "Preprocessor"},
                                                           {"bridge", "Bridge"},
                                                           {"matcher", "Matcher"},

@@ -35,6 +35,8 @@
 namespace ccir_mapping {
 namespace {
 
+using testing::linkedToAllPublishers;
+using testing::registeredPublishers;
 using testing::waitFor;
 
 constexpr double kSensorHeightM = 0.5;
@@ -66,6 +68,7 @@ class Pipeline : public ::testing::Test {
     std::vector<rosgraph_msgs::Log::ConstPtr> log;
     std::map<std::string, std::string> preprocessor_flow;  // its latest diagnostics
     std::vector<ros::Subscriber> subs;
+    ros::Subscriber rosout_sub;
     int scan = 0;  // scans published so far; scan i is stamped t0 + 0.1 i
     double t0 = 1000.0;
 
@@ -82,8 +85,8 @@ class Pipeline : public ::testing::Test {
                                                [this](const auto& m) { broker_stats = m; }));
       subs.push_back(
           nh.subscribe<LinkStats>("link_stats", 10, [this](const auto& m) { link_stats = m; }));
-      subs.push_back(nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
-                                                      [this](const auto& m) { log.push_back(m); }));
+      rosout_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
+                                                    [this](const auto& m) { log.push_back(m); });
       subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
           "/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
             for (const auto& status : m->status) {
@@ -109,10 +112,14 @@ class Pipeline : public ::testing::Test {
             return cloud_pub.getNumSubscribers() > 0 &&
                    (odom_on_tf || odom_pub.getNumSubscribers() > 0) &&
                    subs[0].getNumPublishers() > 0 && subs[1].getNumPublishers() > 0 &&
-                   subs[2].getNumPublishers() > 0;
+                   subs[2].getNumPublishers() > 0 &&
+                   // /rosout is not latched, and some warnings are throttled for a minute:
+                   // the first scan must not come before this test hears the manager's log.
+                   linkedToAllPublishers(rosout_sub);
           },
           30.0))
-          << "the pipeline did not come up";
+          << "the pipeline did not come up (linked to " << rosout_sub.getNumPublishers() << " of "
+          << registeredPublishers("/rosout") << " /rosout publishers)";
     }
 
     ros::Time stamp(int i) const { return ros::Time(t0 + 0.1 * i); }

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <functional>
+#include <string>
 
+#include <ros/master.h>
 #include <ros/ros.h>
 
 namespace ccir_mapping::testing {
@@ -17,6 +19,25 @@ inline bool waitFor(const std::function<bool()>& condition, double timeout_s) {
   }
   ros::spinOnce();
   return condition();
+}
+
+/// The number of nodes the master lists as publishing `topic` (resolved), or -1 if it cannot say.
+inline int registeredPublishers(const std::string& topic) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", args, result, payload, true)) return -1;
+  XmlRpc::XmlRpcValue& publishers = payload[0];
+  for (int i = 0; i < publishers.size(); ++i) {
+    if (static_cast<std::string>(publishers[i][0]) == topic) return publishers[i][1].size();
+  }
+  return 0;
+}
+
+/// Whether `subscriber` is linked to every publisher the master knows of. For a topic that is
+/// not latched (/rosout) this must hold before provoking a message the test means to hear.
+inline bool linkedToAllPublishers(const ros::Subscriber& subscriber) {
+  const int registered = registeredPublishers(subscriber.getTopic());
+  return registered > 0 && static_cast<int>(subscriber.getNumPublishers()) >= registered;
 }
 
 }  // namespace ccir_mapping::testing
