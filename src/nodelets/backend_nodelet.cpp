@@ -10,6 +10,7 @@
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "ccir_mapping/core/team/team_graph_journal.h"
 #include "ccir_mapping/core/team/team_graph_worker.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
@@ -41,6 +42,14 @@ class BackendNodelet final : public PipelineNodelet {
       if (!report.dropped) return count(report.flow);
       drop(report.flow, "dropping %s (from %s)", what.c_str(), report.flow);
     };
+    hooks.unjournaled = [this](const std::string& why) {
+      drop("journal", "an input was not journaled (a restart cannot resume it): %s", why.c_str());
+    };
+    try {
+      journal_.emplace(settings_.save.dir, robot(), settings_.save.resume);
+    } catch (const std::exception& e) {
+      return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
+    }
     worker_ = std::make_unique<Worker>(std::make_unique<TeamGraph>(robot(), settings_.core), hooks);
     advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
@@ -50,6 +59,13 @@ class BackendNodelet final : public PipelineNodelet {
     // Inter-robot closures go to the teammates too: each robot verifies only the scans it
     // received, so without them a pair's two robots each see part of its closures.
     advertise<LoopClosure>(topics::kOutboxLoopClosures, topics::kLoopClosureQueueSize);
+    // The previous run's inputs before any new one (own keyframe ids must increase).
+    if (auto saved = journal_->takeSaved(); !saved.empty()) {
+      NODELET_INFO("resuming the team graph from %zu inputs in %s", saved.size(),
+                   journal_->path().c_str());
+      worker_->resume(std::move(saved));
+    }
+    worker_->keepJournal(&*journal_);
     subscribe(topics::kKeyframes, topics::kKeyframeQueueSize, &BackendNodelet::onKeyframe);
     subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize, &BackendNodelet::onPeerKeyframe);
     subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize, &BackendNodelet::onLoopClosure);
@@ -161,7 +177,8 @@ class BackendNodelet final : public PipelineNodelet {
   double last_solve_s_ = 0.0;  // the newest optimisation's, for diagnostics
   core::team::BackendSnapshot::LoopCounts last_loops_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
-  ros::Time last_tf_stamp_;         // of the last transforms sent (worker thread only)
+  ros::Time last_tf_stamp_;  // of the last transforms sent (worker thread only)
+  std::optional<core::team::TeamGraphJournal> journal_;  // outlives the worker that writes it
   std::unique_ptr<Worker> worker_;  // stopped after the service, while what it publishes with lives
   ros::ServiceServer save_srv_;
 };

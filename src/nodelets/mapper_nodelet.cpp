@@ -36,6 +36,14 @@ class MapperNodelet final : public PipelineNodelet {
       NODELET_INFO("map rebuilt at the optimised poses from %zu scans in %.1f s", scans, seconds);
     };
     stage_ = std::make_unique<info::MapStage>(settings_.frames.robot_name, settings_.core, hooks);
+    try {
+      if (settings_.save.resume && stage_->resume(settings_.save.dir)) {
+        NODELET_INFO("resuming the map saved in %s", settings_.save.dir.c_str());
+      }
+    } catch (const std::exception& e) {
+      stage_.reset();  // inert, and nothing saved over the file at shutdown
+      return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
+    }
     info::SharedMap::registerMap(settings_.frames.robot_name, stage_->map());
     advertise<sensor_msgs::PointCloud2>(topics::kMapCloud, 1);
     advertise<MapStats>(topics::kMapStats, topics::kMessageQueueSize);

@@ -9,6 +9,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
+#include "ccir_mapping/core/preprocess/keyframe_id_journal.h"
 #include "ccir_mapping/core/preprocess/keyframe_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
@@ -27,7 +28,17 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
+    try {
+      journal_.emplace(settings_.save.dir, settings_.save.resume);
+    } catch (const std::exception& e) {
+      return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
+    }
     stage_ = std::make_unique<KeyframeStage>(settings_.core);
+    stage_->startIdsAt(journal_->first());
+    if (journal_->resumed()) {
+      NODELET_INFO("resuming: keyframe ids from %lu on (%s)",
+                   static_cast<unsigned long>(journal_->first()), journal_->path().c_str());
+    }
     placement_ = std::make_unique<ScanPlacement>(settings_, nh.resolveName(topics::kOdometry));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(placement_->tf(), nh);
     if (settings_.odom_source == "lidar") tf_broadcaster_.emplace();
@@ -103,6 +114,11 @@ class PreprocessorNodelet final : public PipelineNodelet {
                     notice.text.c_str());
       }
       if (result.outcome != KeyframeStage::Outcome::kKeyframe) continue;
+      try {
+        journal_->use(result.decision.id);
+      } catch (const std::exception& e) {  // the keyframe still goes out
+        NODELET_ERROR_THROTTLE(60.0, "%s: a restart with resume may reuse keyframe ids", e.what());
+      }
       publish(topics::kKeyframes,
               boost::make_shared<const Keyframe>(conversions::toKeyframeMsg(
                   msg.header, settings_.frames.robot_name, settings_.frames.odom_frame,
@@ -135,6 +151,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
 
   ros_params::PreprocessorSettings settings_;
   std::unique_ptr<KeyframeStage> stage_;
+  std::optional<core::preprocess::KeyframeIdJournal> journal_;
   std::unique_ptr<ScanPlacement> placement_;  // with the scans waiting to be placed
   KeyframeStage::InputCloud scan_;            // conversion buffer, reused scan after scan
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -105,9 +105,12 @@ std::string rosHomeFile(const std::string& name) {
   return (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" + name;
 }
 
-void load(ParamReader& reader, const std::string& robot_name, SaveSettings& save) {
+/// save_dir and resume, and save_on_shutdown for a nodelet that `writes_on_shutdown`.
+void load(ParamReader& reader, const std::string& robot_name, SaveSettings& save,
+          bool writes_on_shutdown = true) {
   reader.read("save_dir", save.dir);
-  reader.read("save_on_shutdown", save.on_shutdown);
+  reader.read("resume", save.resume);
+  if (writes_on_shutdown) reader.read("save_on_shutdown", save.on_shutdown);
   if (save.dir.empty()) save.dir = rosHomeFile("ccir_mapping/" + robot_name);
 }
 
@@ -152,6 +155,12 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.read("lidar_max_iterations", l.max_iterations);
   reader.read("lidar_max_fitness_m2", l.max_fitness_m2);
   reader.addErrors(l.validate());
+  load(reader, config.frames.robot_name, config.save, /*writes_on_shutdown=*/false);
+  if (config.save.resume && config.odom_source == "lidar") {
+    // The journal's teammates and graph chain the new keyframes to the old by odometry.
+    reader.addError("resume = true needs odometry that outlives the manager (odom_source topic "
+                    "or tf): lidar odometry starts again at the origin");
+  }
 }
 
 void load(ParamReader& reader, MatcherSettings& config) {

@@ -623,6 +623,52 @@ TEST(MapStage, SaveWritesTheMapIntoAFolderItCreatesAndOctoMapReadsItBack) {
   std::filesystem::remove_all(::testing::TempDir() + "map_stage_save");
 }
 
+TEST(MapStage, AResumedStageContinuesTheSavedMapAndKeepsItThroughRebuilds) {
+  const std::string dir = ::testing::TempDir() + "map_stage_resume/robot_a";
+  std::filesystem::remove_all(dir);
+  auto occupied = [](const MapStage& stage) {
+    return stage.map()->read([](const auto& map) { return map.occupiedCentres().size(); });
+  };
+  auto known = [](const MapStage& stage) { return stage.stats().known_volume_m3; };
+  MapStage before("robot_a", params());
+  before.addOwn(1, std::make_shared<const Cloud>(roomScan({0, 0, 0})), at(0, 0));
+  before.save(dir);
+
+  MapStage after("robot_a", params());
+  EXPECT_FALSE(after.resume(dir + "/nothing_here")) << "no saved map: nothing to resume";
+  ASSERT_TRUE(after.resume(dir));
+  EXPECT_EQ(occupied(after), occupied(before));
+  EXPECT_NEAR(known(after), known(before), 1e-9);
+  EXPECT_LT(after.stats().entropy_bits, before.stats().entropy_bits)
+      << "a binary OctoMap keeps voxels at their clamping bounds: more certain than one scan";
+
+  // This run's keyframes go on top; a rebuild at moved poses starts from the saved map.
+  auto cloud = std::make_shared<const Cloud>(roomScan({0, 0, 0}));
+  after.addOwn(2, cloud, at(30, 0));
+  const std::size_t with_new = occupied(after);
+  EXPECT_GT(with_new, occupied(before) + 100);
+  after.setOptimizedPoses({{2, at(30, 2)}});
+  ASSERT_TRUE(after.rebuildIfDue(0.0));
+  after.waitForRebuild();
+  EXPECT_EQ(after.stats().rebuilds, 1U);
+  EXPECT_GT(occupied(after), occupied(before) + 100) << "the saved map survived the rebuild";
+  EXPECT_GE(known(after), known(before));
+
+  // A map of another resolution, or not a map at all, is refused by name.
+  MapperParams coarse = params();
+  coarse.resolution_m = 0.4;
+  MapStage other("robot_a", coarse);
+  try {
+    other.resume(dir);
+    ADD_FAILURE() << "a 0.2 m map resumed at 0.4 m";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir + "/map.bt"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir + "/map.bt") << "# Octomap OcTree binary file\nnot really\n";
+  EXPECT_THROW(MapStage("robot_a", params()).resume(dir), std::runtime_error);
+  std::filesystem::remove_all(::testing::TempDir() + "map_stage_resume");
+}
+
 TEST(MapStage, ARebuildStartsFromTheSettledScansAndReplacesOnlyTheWindow) {
   MapperParams p = params();
   p.rebuild_window_scans = 2;

@@ -2,6 +2,8 @@
 // worker that runs it on a thread of its own.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -18,6 +20,7 @@
 #include "ccir_mapping/core/alignment/synthetic_candidates.h"
 #include "ccir_mapping/core/backend/g2o_io.h"
 #include "ccir_mapping/core/team/team_graph.h"
+#include "ccir_mapping/core/team/team_graph_journal.h"
 #include "ccir_mapping/core/team/team_graph_worker.h"
 
 namespace ccir_mapping::core::team {
@@ -577,6 +580,131 @@ TEST_F(ThreeRobots, ATeammatesOwnClosureIsRefused) {
   EXPECT_FALSE(graph.addLoopClosure(loop("robot_b", "robot_b", 40, 10))) << "never shared";
   EXPECT_TRUE(graph.addLoopClosure(loop("robot_b", "robot_c", 40, 40)));
   EXPECT_FALSE(graph.addLoopClosure(loop("robot_c", "robot_b", 40, 40))) << "counted once";
+}
+
+// A robot killed after the first meeting: the inputs its journal kept rebuild the same graph in a
+// new worker, which then carries on with new keyframes.
+TEST_F(Corridor, AResumedWorkerRebuildsTheGraphTheJournalKeptAndCarriesOn) {
+  using Worker = TeamGraphWorker;
+  const std::string dir =
+      ::testing::TempDir() + "team_graph_journal_" + std::to_string(::getpid()) + "/robot_a";
+  std::filesystem::remove_all(dir);
+  std::vector<BackendSnapshot> before, after;
+  Worker::Hooks hooks;
+  std::vector<std::string> unjournaled;
+  hooks.unjournaled = [&](const std::string& why) { unjournaled.push_back(why); };
+  {
+    hooks.optimized = [&](const BackendSnapshot& s, const TeamGraph&) { before.push_back(s); };
+    TeamGraphJournal journal(dir, "robot_a", /*resume=*/false);
+    EXPECT_TRUE(journal.takeSaved().empty());
+    Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks,
+                  Worker::Threading::kCaller);
+    worker.keepJournal(&journal);
+    for (int i = 0; i < 30; ++i) {
+      worker.add(Worker::OwnKeyframe{"robot_a", KeyframeId(i), fromSeconds(i), own_[i]});
+      worker.add(Worker::PeerKeyframe{"robot_b", KeyframeId(100 + i), odom_b_[i]});
+    }
+    for (int i = 0; i <= 14; ++i) {
+      LoopClosureData l = loop(i, i);
+      l.method = "fabmap";
+      l.odom_pose_from = own_[i];
+      EXPECT_TRUE(worker.addOwnLoop(l));
+    }
+    worker.add(Worker::PeerKeyframe{"robot b", 999, odom_b_[0]});  // a name it cannot keep
+    worker.tick();
+  }  // killed: nothing more is written
+  ASSERT_FALSE(before.empty());
+  ASSERT_TRUE(before.back().team.at(0).in_graph);
+  EXPECT_EQ(unjournaled.size(), 1U);
+  std::ofstream(dir + "/team_graph_inputs", std::ios::app) << "K robot_a 30 3000000";  // cut short
+
+  hooks.optimized = [&](const BackendSnapshot& s, const TeamGraph&) { after.push_back(s); };
+  TeamGraphJournal journal(dir, "robot_a", /*resume=*/true);
+  auto saved = journal.takeSaved();
+  EXPECT_EQ(saved.size(), 30U + 30U + 15U) << "every input but the unnamed and the cut short";
+  Worker worker(std::make_unique<TeamGraph>("robot_a", BackendParams{}), hooks,
+                Worker::Threading::kCaller);
+  worker.resume(std::move(saved));
+  worker.keepJournal(&journal);
+  ASSERT_EQ(after.size(), 1U) << "resumed inputs are optimised at once";
+  const BackendSnapshot& was = before.back();
+  const BackendSnapshot& is = after.back();
+  ASSERT_EQ(is.ids, was.ids);
+  // One solve from the start against the run's solves at each closure: the same optimum.
+  for (std::size_t k = 0; k < was.poses.size(); ++k) {
+    EXPECT_LT((is.poses[k].translation() - was.poses[k].translation()).norm(), 1e-3) << k;
+  }
+  ASSERT_EQ(is.team.size(), 1U);
+  EXPECT_TRUE(is.team[0].in_graph);
+  EXPECT_LT(
+      (is.team[0].alignment.transform.translation() - was.team[0].alignment.transform.translation())
+          .norm(),
+      1e-3);
+  EXPECT_EQ(is.loops.inter, was.loops.inter);
+
+  // The resumed run goes on, and its inputs join the journal after the first run's.
+  worker.add(Worker::OwnKeyframe{"robot_a", 1030, fromSeconds(30), own_[30]});
+  worker.tick();
+  EXPECT_EQ(after.back().ids.back(), 1030U);
+  EXPECT_EQ(TeamGraphJournal(dir, "robot_a", true).takeSaved().size(), 76U);
+
+  // Another robot's journal, or a line that is not an input, is refused by name.
+  EXPECT_THROW(TeamGraphJournal(dir, "robot_b", true), std::runtime_error);
+  std::ofstream(dir + "/team_graph_inputs", std::ios::app) << "K robot_a 1031 nan\n";
+  try {
+    TeamGraphJournal bad(dir, "robot_a", true);
+    ADD_FAILURE() << "a line that is not an input was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("team_graph_inputs:78"), std::string::npos) << e.what();
+  }
+  // Without resume a new mission starts the file anew.
+  EXPECT_TRUE(TeamGraphJournal(dir, "robot_a", false).takeSaved().empty());
+  EXPECT_TRUE(TeamGraphJournal(dir, "robot_a", true).takeSaved().empty());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(TeamGraphJournal, EachInputReadsBackExactlyAndALineThatIsNotOneIsRefused) {
+  using Worker = TeamGraphWorker;
+  const Pose3 pose = Pose3(Eigen::Translation3d(1.0 / 3.0, -2e-7, 1e5)) *
+                     Eigen::AngleAxisd(0.1234567890123, Eigen::Vector3d(1, 2, 3).normalized());
+  LoopClosureData loop;
+  loop.robot_from = "robot_b";
+  loop.keyframe_from = 7;
+  loop.robot_to = "robot_c";
+  loop.keyframe_to = (KeyframeId{1} << 55) + 3;
+  loop.relative = pose;
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  loop.covariance(0, 1) = loop.covariance(1, 0) = 3e-5;
+  loop.odom_pose_to = pose.inverse();
+  loop.match_score = 0.9;
+  loop.fitness_m2 = 0.01;
+  loop.inliers = 42;
+  loop.method = "scan_context";
+  const std::vector<TeamGraphJournal::Input> inputs = {
+      Worker::OwnKeyframe{"robot_a", 12, -5, pose},
+      Worker::PeerKeyframe{"robot_b", 13, pose.inverse()}, loop};
+  for (const auto& input : inputs) {
+    const std::string line = TeamGraphJournal::format(input);
+    const auto read = TeamGraphJournal::parse(line);
+    ASSERT_TRUE(read) << line;
+    EXPECT_EQ(TeamGraphJournal::format(*read), line);
+  }
+  const auto read =
+      std::get<LoopClosureData>(*TeamGraphJournal::parse(TeamGraphJournal::format(loop)));
+  EXPECT_EQ(read.relative.matrix(), loop.relative.matrix()) << "exact, not approximate";
+  EXPECT_EQ(read.covariance, loop.covariance);
+  EXPECT_FALSE(read.odom_pose_from);
+  EXPECT_EQ(read.odom_pose_to->matrix(), loop.odom_pose_to->matrix());
+  EXPECT_EQ(read.keyframe_to, loop.keyframe_to);
+  EXPECT_EQ(read.method, "scan_context");
+  const std::string own = TeamGraphJournal::format(inputs[0]);
+  for (const std::string& bad :
+       {std::string(""), std::string("X robot_a 1"), own + " 1", own.substr(0, own.size() / 2),
+        std::string("K robot_a -1 0 1 0 0 0 0 1 0 0 0 0 1 0"),
+        std::string("K robot_a 1 0 2 0 0 0 0 1 0 0 0 0 1 0"),  // not a rotation
+        std::string("K robot_a 99999999999999999999 0 1 0 0 0 0 1 0 0 0 0 1 0")}) {
+    EXPECT_FALSE(TeamGraphJournal::parse(bad)) << bad;
+  }
 }
 
 TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {

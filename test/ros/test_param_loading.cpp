@@ -149,6 +149,31 @@ TEST(ParamLoading, TheMapGraphAndTrajectoriesGoToRosHomeUnlessAFolderIsGiven) {
   EXPECT_FALSE(backend.save.on_shutdown);
 }
 
+TEST(ParamLoading, ResumeIsReadWhereItActsAndRefusedWithLidarOdometry) {
+  ::setenv("ROS_HOME", "/tmp/some_ros_home", 1);
+  PreprocessorSettings preprocessor;
+  ParamReader reader{params("{robot_name: robot_c, resume: true}")};
+  load(reader, preprocessor);
+  EXPECT_TRUE(reader.errors().empty());
+  EXPECT_TRUE(preprocessor.save.resume);
+  EXPECT_EQ(preprocessor.save.dir, "/tmp/some_ros_home/ccir_mapping/robot_c");
+  // It writes nothing on shutdown: the key is not its.
+  ParamReader shutdown{params("{robot_name: robot_c, save_on_shutdown: false}")};
+  load(shutdown, preprocessor);
+  EXPECT_EQ(shutdown.unknownKeys(), std::vector<std::string>{"save_on_shutdown"});
+  ParamReader lidar{params("{robot_name: robot_c, resume: true, odom_source: lidar}")};
+  load(lidar, preprocessor);
+  EXPECT_TRUE(hasError(lidar, "resume = true needs odometry that outlives the manager"));
+  MapperSettings mapper;
+  BackendSettings backend;
+  ParamReader mapper_reader{params("{robot_name: robot_c, resume: true}")};
+  ParamReader backend_reader{params("{robot_name: robot_c}")};
+  load(mapper_reader, mapper);
+  load(backend_reader, backend);
+  EXPECT_TRUE(mapper.save.resume);
+  EXPECT_FALSE(backend.save.resume) << "a new mission unless told";
+}
+
 TEST(ParamLoading, UnknownKeysAreReported) {
   ParamReader reader{params("{voxel_leaf: 0.2, voxel_leaf_m: 0.2}")};
   PreprocessorSettings settings;

@@ -24,13 +24,17 @@ struct RobotFrames {
   std::string base_frame;
 };
 
-/// Where a robot writes what it built: the Mapper its map (map.bt), the Backend its team graph
-/// and trajectories (team_graph.g2o, trajectory.tum, odometry.tum); on their save services and,
-/// with on_shutdown, when they stop (SIGINT, roslaunch shutdown, unloading).
+/// Where a robot keeps what outlives its process: the Mapper writes its map (map.bt), the Backend
+/// its team graph and trajectories (team_graph.g2o, trajectory.tum, odometry.tum), on their save
+/// services and, with on_shutdown, when they stop (SIGINT, roslaunch shutdown, unloading); the
+/// Preprocessor keeps its keyframe ids' journal there (keyframe_ids) all along.
 struct SaveSettings {
   /// Left empty, load() sets $ROS_HOME/ccir_mapping/<robot_name> (~/.ros without ROS_HOME).
   std::string dir;
-  bool on_shutdown = true;
+  bool on_shutdown = true;  // Mapper and Backend
+  /// Continue the mission of a previous run from dir (a robot restarted after a crash): keyframe
+  /// ids after those it used, the Mapper from map.bt. Without it a run starts a new mission.
+  bool resume = false;
 };
 
 struct PreprocessorSettings {
@@ -42,6 +46,8 @@ struct PreprocessorSettings {
   /// the oldest of a full queue; the Preprocessor counts them as missed): 2 s of a VLP-16,
   /// enough for a manager that a busy machine stalls for a moment.
   int scan_queue_size = 20;
+  /// dir and resume only: the keyframe ids' journal.
+  SaveSettings save;
   core::preprocess::PreprocessorParams core;
   core::preprocess::LidarOdometryParams lidar_odometry;
 };

@@ -138,6 +138,18 @@ std::string MapStage::save(const std::string& dir) {
   return path;
 }
 
+bool MapStage::resume(const std::string& dir) {
+  const std::string path = dir + "/map.bt";
+  if (!std::filesystem::exists(path)) return false;
+  auto saved = std::make_unique<OccupancyMap>(params_);
+  saved->load(path);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (busy_) throw std::logic_error("MapStage::resume during a rebuild");
+  base_ = saved->snapshot();
+  map_->replace(std::move(saved));
+  return true;
+}
+
 MapStage::Stats MapStage::stats() const {
   Stats stats;
   map_->read([&](const OccupancyMap& map) {

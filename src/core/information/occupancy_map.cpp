@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
@@ -355,6 +356,25 @@ double OccupancyMap::simulatedCsqmi(const Pose3& sensor_pose) const {
 bool OccupancyMap::save(const std::string& path) {
   tree_.updateInnerOccupancy();
   return tree_.writeBinaryConst(path);
+}
+
+void OccupancyMap::load(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  octomap::OcTree read(params_.resolution_m);
+  read.setClampingThresMin(params_.occupancy_clamp_min);  // what read voxels are set to
+  read.setClampingThresMax(params_.occupancy_clamp_max);
+  if (!read.readBinary(in)) throw std::runtime_error(path + " is not a binary OctoMap");
+  if (std::abs(read.getResolution() - params_.resolution_m) > 1e-9) {
+    throw std::runtime_error(path + " has voxels of " + std::to_string(read.getResolution()) +
+                             " m, not resolution_m " + std::to_string(params_.resolution_m));
+  }
+  // Inserting updates finest voxels only (finestLeaf): a pruned file is expanded.
+  read.expand();
+  tree_.swapContent(read);
+  const Box box{params_.entropyBoxMin(), params_.entropyBoxMax()};
+  box_entropy_bits_ = entropyBits(box);
+  box_known_voxels_ = knownVolumeM3(box) / std::pow(params_.resolution_m, 3);
 }
 
 }  // namespace ccir_mapping::core::information

@@ -2,6 +2,8 @@
 
 #include <future>
 
+#include "ccir_mapping/core/team/team_graph_journal.h"
+
 namespace ccir_mapping::core::team {
 
 using backend::LoopClosureData;
@@ -152,18 +154,39 @@ bool TeamGraphWorker::inspect(const std::function<void(const TeamGraph&)>& task)
   return true;
 }
 
-void TeamGraphWorker::queue(Input input, bool urgent) {
-  if (!thread_.joinable()) {
-    inputs_.push_back(std::move(input));
-    if (urgent) tick();
-    return;
-  }
+void TeamGraphWorker::keepJournal(TeamGraphJournal* journal) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  journal_ = journal;
+}
+
+void TeamGraphWorker::resume(std::vector<Input> inputs) {
+  if (inputs.empty()) return;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& input : inputs) inputs_.push_back(std::move(input));
+  }
+  tick();
+}
+
+void TeamGraphWorker::queue(Input input, bool urgent) {
+  {
+    // One lock: the journal keeps the inputs in the order the graph takes them.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (journal_) {
+      try {
+        journal_->append(input);
+      } catch (const std::exception& e) {
+        if (hooks_.unjournaled) hooks_.unjournaled(e.what());
+      }
+    }
     inputs_.push_back(std::move(input));
     due_ = due_ || urgent;
   }
-  if (urgent) wake_.notify_one();
+  if (!thread_.joinable()) {
+    if (urgent) tick();
+  } else if (urgent) {
+    wake_.notify_one();
+  }
 }
 
 void TeamGraphWorker::run() {

@@ -81,6 +81,11 @@ class MapStage {
   /// creating DIR, and returns the file's path. Throws std::runtime_error naming what it could
   /// not write.
   std::string save(const std::string& dir);
+  /// Continues the map save() left in DIR/map.bt, before any scan is added: it becomes what
+  /// rebuilds start from, so it stays beneath this run's scans (at the poses it was built at).
+  /// False when there is no such file (nothing to resume); throws std::runtime_error naming it
+  /// when it cannot be read (OccupancyMap::load).
+  bool resume(const std::string& dir);
   Stats stats() const;
 
  private:

@@ -111,6 +111,11 @@ class OccupancyMap final : public MapInformation {
   const MapperParams& params() const { return params_; }
   /// Writes the map as a binary OctoMap (.bt); false if the file cannot be written.
   bool save(const std::string& path);
+  /// Replaces the map with one save() wrote. A binary OctoMap keeps only free or occupied, so
+  /// each voxel comes back at its clamping bound. Throws std::runtime_error naming the file
+  /// when it cannot be read, is not a binary OctoMap, or has another resolution than
+  /// resolution_m.
+  void load(const std::string& path);
 
  private:
   /// Log-odds of the voxel after one hit or miss, as OccupancyOcTreeBase::updateNode does it.

@@ -34,6 +34,8 @@ class KeyframeSelector {
 
   void setParams(const Params& params) { params_ = params; }
   KeyframeId nextId() const { return next_id_; }
+  /// Numbers the keyframes from `id` on (a resumed robot continues its ids: KeyframeIdJournal).
+  void startIdsAt(KeyframeId id) { next_id_ = id; }
 
  private:
   Params params_;

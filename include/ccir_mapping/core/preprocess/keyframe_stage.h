@@ -78,6 +78,8 @@ class KeyframeStage {
   void setParams(const PreprocessorParams& params);
   const PreprocessorParams& params() const { return preprocessor_.params(); }
   const Totals& totals() const { return totals_; }
+  /// Numbers the keyframes from `id` on (KeyframeSelector::startIdsAt).
+  void startIdsAt(KeyframeId id) { selector_.startIdsAt(id); }
 
  private:
   static KeyframeSelector::Params selectorParams(const PreprocessorParams& params);

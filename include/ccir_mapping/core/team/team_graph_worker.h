@@ -15,10 +15,13 @@
 #include <string>
 #include <thread>
 #include <variant>
+#include <vector>
 
 #include "ccir_mapping/core/team/team_graph.h"
 
 namespace ccir_mapping::core::team {
+
+class TeamGraphJournal;
 
 class TeamGraphWorker {
  public:
@@ -65,7 +68,12 @@ class TeamGraphWorker {
     /// A refused input, saying what it was and why ("keyframe 12: ids must increase"); on the
     /// caller's thread or the worker's.
     std::function<void(Refusal, const std::string&)> refused;
+    /// An input the journal (keepJournal) could not keep, and why; on the caller's thread.
+    std::function<void(const std::string&)> unjournaled;
   };
+
+  /// What it hands the graph, routed and checked.
+  using Input = std::variant<OwnKeyframe, PeerKeyframe, backend::LoopClosureData>;
 
   enum class Threading { kOwnThread, kCaller };
 
@@ -82,6 +90,12 @@ class TeamGraphWorker {
   /// A closure a teammate found, with its keyframe and that keyframe's odometry pose
   /// (backend::routeTeammateLoop).
   void addTeammateLoop(const backend::LoopClosureData& loop);
+  /// From now on, each input taken is appended to `journal` (which outlives the worker) before
+  /// it is applied; nullptr: none.
+  void keepJournal(TeamGraphJournal* journal);
+  /// A previous run's inputs (TeamGraphJournal::takeSaved), applied in their order and
+  /// optimised at once; closures are not routed to teammates again.
+  void resume(std::vector<Input> inputs);
   /// Optimises if anything arrived since the last optimisation.
   void tick();
   /// Runs `task` with the graph on the worker's thread (after the optimisation under way, if
@@ -90,7 +104,6 @@ class TeamGraphWorker {
   bool inspect(const std::function<void(const TeamGraph&)>& task);
 
  private:
-  using Input = std::variant<OwnKeyframe, PeerKeyframe, backend::LoopClosureData>;
   void queue(Input input, bool urgent);
   void run();
   /// Applies `inputs`, optimises and reports (hooks.run, hooks.optimized).
@@ -104,6 +117,7 @@ class TeamGraphWorker {
   std::mutex mutex_;  // guards what callers hand to the worker
   std::condition_variable wake_;
   std::deque<Input> inputs_;
+  TeamGraphJournal* journal_ = nullptr;
   std::deque<std::function<void(const TeamGraph&)>> tasks_;  // inspect()'s
   bool due_ = false;
   bool stop_ = false;
