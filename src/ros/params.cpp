@@ -158,8 +158,9 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   load(reader, config.frames.robot_name, config.save, /*writes_on_shutdown=*/false);
   if (config.save.resume && config.odom_source == "lidar") {
     // The journal's teammates and graph chain the new keyframes to the old by odometry.
-    reader.addError("resume = true needs odometry that outlives the manager (odom_source topic "
-                    "or tf): lidar odometry starts again at the origin");
+    reader.addError(
+        "resume = true needs odometry that outlives the manager (odom_source topic "
+        "or tf): lidar odometry starts again at the origin");
   }
 }
 
