@@ -45,10 +45,9 @@ class BackendNodelet final : public PipelineNodelet {
     hooks.unjournaled = [this](const std::string& why) {
       drop("journal", "an input was not journaled (a restart cannot resume it): %s", why.c_str());
     };
-    try {
-      journal_.emplace(settings_.save.dir, robot(), settings_.save.resume);
-    } catch (const std::exception& e) {
-      return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
+    if (!openJournal(journal_, settings_.save.resume, settings_.save.dir, robot(),
+                     settings_.save.resume)) {
+      return;
     }
     worker_ = std::make_unique<Worker>(std::make_unique<TeamGraph>(robot(), settings_.core), hooks);
     advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
@@ -60,12 +59,8 @@ class BackendNodelet final : public PipelineNodelet {
     // received, so without them a pair's two robots each see part of its closures.
     advertise<LoopClosure>(topics::kOutboxLoopClosures, topics::kLoopClosureQueueSize);
     // The previous run's inputs before any new one (own keyframe ids must increase).
-    if (auto saved = journal_->takeSaved(); !saved.empty()) {
-      NODELET_INFO("resuming the team graph from %zu inputs in %s", saved.size(),
-                   journal_->path().c_str());
-      worker_->resume(std::move(saved));
-    }
-    worker_->keepJournal(&*journal_);
+    if (const std::size_t resumed = journal_ ? worker_->keepJournal(*journal_) : 0)
+      NODELET_INFO("resumed the team graph from %zu inputs in save_dir", resumed);
     subscribe(topics::kKeyframes, topics::kKeyframeQueueSize, &BackendNodelet::onKeyframe);
     subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize, &BackendNodelet::onPeerKeyframe);
     subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize, &BackendNodelet::onLoopClosure);

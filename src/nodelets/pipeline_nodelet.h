@@ -68,6 +68,23 @@ class PipelineNodelet : public nodelet::Nodelet {
   /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert.
   void failConfiguration(const std::string& error);
 
+  /// Opens a journal in save_dir (constructed from `args`, which throws what it cannot do).
+  /// False when it could not and `resume` was asked for (failConfiguration: the caller stays
+  /// inert); without `resume` the error is logged and the nodelet runs without (`journal` unset).
+  template <class Journal, class... Args>
+  bool openJournal(std::optional<Journal>& journal, bool resume, Args&&... args) {
+    try {
+      journal.emplace(std::forward<Args>(args)...);
+    } catch (const std::exception& e) {
+      if (resume) {
+        failConfiguration(std::string(e.what()) + " (save_dir, resume)");
+        return false;
+      }
+      NODELET_ERROR("%s (save_dir): not journaled, a restart could not resume", e.what());
+    }
+    return true;
+  }
+
   /// Runs `write` (returns the files it wrote, nullopt when it could not run, throws on an
   /// error) and logs what happened, which `message` also says; true when it wrote.
   bool saveFiles(const std::function<std::optional<std::vector<std::string>>()>& write,

@@ -28,17 +28,13 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
-    try {
-      journal_.emplace(settings_.save.dir, settings_.save.resume);
-    } catch (const std::exception& e) {
-      return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
-    }
+    if (!openJournal(journal_, settings_.save.resume, settings_.save.dir, settings_.save.resume))
+      return;
     stage_ = std::make_unique<KeyframeStage>(settings_.core);
-    stage_->startIdsAt(journal_->first());
-    if (journal_->resumed()) {
-      NODELET_INFO("resuming: keyframe ids from %lu on (%s)",
-                   static_cast<unsigned long>(journal_->first()), journal_->path().c_str());
-    }
+    if (journal_) stage_->startIdsAt(journal_->first());
+    if (journal_ && journal_->resumed())
+      NODELET_INFO("resuming: keyframe ids from %lu on",
+                   static_cast<unsigned long>(journal_->first()));
     placement_ = std::make_unique<ScanPlacement>(settings_, nh.resolveName(topics::kOdometry));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(placement_->tf(), nh);
     if (settings_.odom_source == "lidar") tf_broadcaster_.emplace();
@@ -115,7 +111,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
       }
       if (result.outcome != KeyframeStage::Outcome::kKeyframe) continue;
       try {
-        journal_->use(result.decision.id);
+        if (journal_) journal_->use(result.decision.id);
       } catch (const std::exception& e) {  // the keyframe still goes out
         NODELET_ERROR_THROTTLE(60.0, "%s: a restart with resume may reuse keyframe ids", e.what());
       }

@@ -40,32 +40,13 @@ import xml.etree.ElementTree as ET
 import roslib.packages
 import rospy
 
-from rostest_processes import Processes, free_port
+from rostest_processes import Processes, descendants, free_port
 
 BUDGET = 150000.0
 BURST = 131072
 TEAM_KEY = "bridge-test-team-key"
 CUT_AFTER_S = 8.0  # into the traffic; robot_b's crash with ~restart too
 RESTART_TRAFFIC_AFTER_S = 4.0  # after the crash: robot_b's new process sends from then
-
-
-def descendants(pid):
-    """pid and every process below it (from /proc)."""
-    children = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open("/proc/%s/stat" % entry) as f:
-                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            children.setdefault(ppid, []).append(int(entry))
-    found, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        found.append(p)
-        todo += children.get(p, [])
-    return found
 
 
 def executable(name):

@@ -29,6 +29,25 @@ def free_port():
     raise RuntimeError("no free TCP port below %d" % ephemeral)
 
 
+def descendants(pid):
+    """pid and every process below it (from /proc)."""
+    children = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open("/proc/%s/stat" % entry) as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(entry))
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        found.append(p)
+        todo += children.get(p, [])
+    return found
+
+
 class Processes:
     """Mixin for unittest.TestCase: self.dir must be set (logs go there)."""
 
@@ -78,11 +97,16 @@ class Processes:
             config = os.path.join(run, robot + ".yaml")
             with open(config, "w") as f:
                 f.write(overrides(robot, bridge))
-            self.spawn("pipeline_" + robot,
-                       ["roslaunch", "ccir_mapping", "robot.launch", "robot:=" + robot,
-                        "use_sim_time:=true", "overrides:=" + config] + launch_args(robot),
-                       master[robot])
+            self.start_pipeline(robot, config, master[robot], launch_args(robot))
         return master
+
+    def start_pipeline(self, robot, config, master_port, launch_args, log_suffix=""):
+        """One robot's pipeline (launch/robot.launch in simulated time) with the overrides in
+        `config`, on the master at master_port."""
+        return self.spawn("pipeline_" + robot + log_suffix,
+                          ["roslaunch", "ccir_mapping", "robot.launch", "robot:=" + robot,
+                           "use_sim_time:=true", "overrides:=" + config] + launch_args,
+                          master_port)
 
     def wait_for(self, condition, timeout_s, what, poll_s=0.2):
         deadline = time.monotonic() + timeout_s

@@ -154,18 +154,15 @@ bool TeamGraphWorker::inspect(const std::function<void(const TeamGraph&)>& task)
   return true;
 }
 
-void TeamGraphWorker::keepJournal(TeamGraphJournal* journal) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  journal_ = journal;
-}
-
-void TeamGraphWorker::resume(std::vector<Input> inputs) {
-  if (inputs.empty()) return;
+std::size_t TeamGraphWorker::keepJournal(TeamGraphJournal& journal) {
+  auto saved = journal.takeSaved();
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& input : inputs) inputs_.push_back(std::move(input));
+    for (auto& input : saved) inputs_.push_back(std::move(input));
+    journal_ = &journal;
   }
-  tick();
+  if (!saved.empty()) tick();
+  return saved.size();
 }
 
 void TeamGraphWorker::queue(Input input, bool urgent) {

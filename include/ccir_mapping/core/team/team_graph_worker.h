@@ -15,7 +15,6 @@
 #include <string>
 #include <thread>
 #include <variant>
-#include <vector>
 
 #include "ccir_mapping/core/team/team_graph.h"
 
@@ -90,12 +89,11 @@ class TeamGraphWorker {
   /// A closure a teammate found, with its keyframe and that keyframe's odometry pose
   /// (backend::routeTeammateLoop).
   void addTeammateLoop(const backend::LoopClosureData& loop);
-  /// From now on, each input taken is appended to `journal` (which outlives the worker) before
-  /// it is applied; nullptr: none.
-  void keepJournal(TeamGraphJournal* journal);
-  /// A previous run's inputs (TeamGraphJournal::takeSaved), applied in their order and
-  /// optimised at once; closures are not routed to teammates again.
-  void resume(std::vector<Input> inputs);
+  /// Resumes what `journal` (which outlives the worker) saved of a previous run: its inputs
+  /// are applied in their order and optimised at once (closures are not routed to teammates
+  /// again). From then on each input taken is appended to it before it is applied. Returns the
+  /// number of inputs resumed; call it before any input.
+  std::size_t keepJournal(TeamGraphJournal& journal);
   /// Optimises if anything arrived since the last optimisation.
   void tick();
   /// Runs `task` with the graph on the worker's thread (after the optimisation under way, if
