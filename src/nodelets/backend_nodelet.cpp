@@ -67,6 +67,11 @@ class BackendNodelet final : public PipelineNodelet {
     subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
               &BackendNodelet::onTeammateLoopClosure);
     createPeriodicTimer(settings_.core.optimize_period_s, [this] { worker_->tick(); });
+    if (settings_.save.period_s > 0)
+      createPeriodicTimer(settings_.save.period_s, [this] {
+        std::string message;
+        save(&message);
+      });
     save_srv_ = getPrivateNodeHandle().advertiseService("save_team_graph",
                                                         &BackendNodelet::onSaveGraph, this);
   }

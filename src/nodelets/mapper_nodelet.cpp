@@ -53,6 +53,11 @@ class MapperNodelet final : public PipelineNodelet {
     subscribe(topics::kTeamTransforms, topics::kMessageQueueSize, &MapperNodelet::onTeamTransform);
     subscribe(topics::kTeamKeyframePoses, topics::kMessageQueueSize, &MapperNodelet::onPeerPoses);
     save_srv_ = getPrivateNodeHandle().advertiseService("save_map", &MapperNodelet::onSave, this);
+    if (settings_.save.period_s > 0)
+      createPeriodicTimer(settings_.save.period_s, [this] {
+        std::string message;
+        save(&message);
+      });
     createPeriodicTimer(settings_.core.publish_period_s,
                         [this] { measured("statistics", [this] { onTimer(); }); });
   }

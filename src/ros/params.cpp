@@ -105,12 +105,18 @@ std::string rosHomeFile(const std::string& name) {
   return (ros_home ? std::string(ros_home) : std::string(home ? home : ".") + "/.ros") + "/" + name;
 }
 
-/// save_dir and resume, and save_on_shutdown for a nodelet that `writes_on_shutdown`.
+/// save_dir and resume, and save_on_shutdown and save_period_s for a nodelet that `writes_files`.
 void load(ParamReader& reader, const std::string& robot_name, SaveSettings& save,
-          bool writes_on_shutdown = true) {
+          bool writes_files = true) {
   reader.read("save_dir", save.dir);
   reader.read("resume", save.resume);
-  if (writes_on_shutdown) reader.read("save_on_shutdown", save.on_shutdown);
+  if (writes_files) {
+    reader.read("save_on_shutdown", save.on_shutdown);
+    reader.read("save_period_s", save.period_s);
+    core::ParamCheck period;
+    period.inRange("save_period_s", save.period_s, 0.0, 86400.0);
+    reader.addErrors(period.errors());
+  }
   if (save.dir.empty()) save.dir = rosHomeFile("ccir_mapping/" + robot_name);
 }
 
@@ -155,7 +161,7 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.read("lidar_max_iterations", l.max_iterations);
   reader.read("lidar_max_fitness_m2", l.max_fitness_m2);
   reader.addErrors(l.validate());
-  load(reader, config.frames.robot_name, config.save, /*writes_on_shutdown=*/false);
+  load(reader, config.frames.robot_name, config.save, /*writes_files=*/false);
   if (config.save.resume && config.odom_source == "lidar") {
     // The journal's teammates and graph chain the new keyframes to the old by odometry.
     reader.addError(

@@ -157,10 +157,11 @@ TEST(ParamLoading, ResumeIsReadWhereItActsAndRefusedWithLidarOdometry) {
   EXPECT_TRUE(reader.errors().empty());
   EXPECT_TRUE(preprocessor.save.resume);
   EXPECT_EQ(preprocessor.save.dir, "/tmp/some_ros_home/ccir_mapping/robot_c");
-  // It writes nothing on shutdown: the key is not its.
-  ParamReader shutdown{params("{robot_name: robot_c, save_on_shutdown: false}")};
+  // It writes no files: those keys are not its.
+  ParamReader shutdown{params("{robot_name: robot_c, save_on_shutdown: false, save_period_s: 5}")};
   load(shutdown, preprocessor);
-  EXPECT_EQ(shutdown.unknownKeys(), std::vector<std::string>{"save_on_shutdown"});
+  EXPECT_EQ(shutdown.unknownKeys(),
+            (std::vector<std::string>{"save_on_shutdown", "save_period_s"}));
   ParamReader lidar{params("{robot_name: robot_c, resume: true, odom_source: lidar}")};
   load(lidar, preprocessor);
   EXPECT_TRUE(hasError(lidar, "resume = true needs odometry that outlives the manager"));
@@ -172,6 +173,13 @@ TEST(ParamLoading, ResumeIsReadWhereItActsAndRefusedWithLidarOdometry) {
   load(backend_reader, backend);
   EXPECT_TRUE(mapper.save.resume);
   EXPECT_FALSE(backend.save.resume) << "a new mission unless told";
+  EXPECT_EQ(backend.save.period_s, 0.0) << "saved only on the services and at shutdown";
+  ParamReader periodic{params("{robot_name: robot_c, save_period_s: 30.0}")};
+  load(periodic, backend);
+  EXPECT_EQ(backend.save.period_s, 30.0);
+  ParamReader negative{params("{robot_name: robot_c, save_period_s: -1.0}")};
+  load(negative, mapper);
+  EXPECT_TRUE(hasError(negative, "save_period_s"));
 }
 
 TEST(ParamLoading, UnknownKeysAreReported) {

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """A robot that crashes mid-mission and resumes: two robots of the fixture mission, each its whole
 pipeline (launch/robot.launch, broker mode ccir) on a ROS master of its own, bridged over
-loopback. robot_b replays the first half of its bag, saves its map (mapper/save_map, as an
-operator or a periodic job would), and its manager dies with SIGKILL (manager, nodelet loaders
+loopback, saving every 2 s of mission time (save_period_s). robot_b replays the first half of
+its bag, and once its map is saved its manager dies with SIGKILL (manager, nodelet loaders
 and roslaunch at once: nothing is written at shutdown). Started again with resume:=true it must
 come back with its team graph (every keyframe it had, from team_graph_inputs) and its saved map
 before any new scan, then replay the second half numbering its keyframes after the old ones.
@@ -67,7 +67,7 @@ class RobotRestart(Processes, unittest.TestCase):
         master = self.start_team(self.dir, ROBOTS, lambda robot, bridge: (
             "broker: {mode: ccir, stats_period_s: 0.5}\n"
             "bridge: {%s, stats_period_s: 0.2}\n" % bridge),
-            lambda robot: ["save_dir:=" + saved[robot]])
+            lambda robot: ["save_dir:=" + saved[robot], "save_period_s:=2"])
         a, b = master["robot_a"], master["robot_b"]
         ids_log = os.path.join(self.dir, "robot_b_keyframe_ids.csv")
         self.spawn("ids_b", ["rostopic", "echo", "-p", "/keyframes/id"], b, out=ids_log)
@@ -89,9 +89,8 @@ class RobotRestart(Processes, unittest.TestCase):
                       self.trajectory_length(b) == len(keyframe_ids()), 120,
                       "robot_b's keyframes all in its trajectory")
         keyframes_before = len(keyframe_ids())
-        save = subprocess.run(["rosservice", "call", "/mapper/save_map"], env=self.env(b),
-                              capture_output=True, text=True, timeout=60)
-        self.assertIn("success: True", save.stdout, save.stdout + save.stderr)
+        map_file = os.path.join(saved["robot_b"], "map.bt")
+        self.wait_for(lambda: os.path.exists(map_file), 60, "robot_b's periodic save")
         pipeline_b = [p for p in self.processes if "robot:=robot_b" in p.args][0]
         for pid in descendants(pipeline_b.pid):
             try:
@@ -101,7 +100,8 @@ class RobotRestart(Processes, unittest.TestCase):
         pipeline_b.wait(timeout=10)
 
         self.start_pipeline("robot_b", os.path.join(self.dir, "robot_b.yaml"), b,
-                            ["save_dir:=" + saved["robot_b"], "resume:=true"], "_resumed")
+                            ["save_dir:=" + saved["robot_b"], "save_period_s:=2", "resume:=true"],
+                            "_resumed")
         # Before any new scan: its keyframes and its map are back.
         self.wait_for(lambda: self.trajectory_length(b) >= keyframes_before, 120,
                       "robot_b's resumed trajectory (%d keyframes before the crash)"

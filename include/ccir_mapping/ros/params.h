@@ -26,12 +26,16 @@ struct RobotFrames {
 
 /// Where a robot keeps what outlives its process: the Mapper writes its map (map.bt), the Backend
 /// its team graph and trajectories (team_graph.g2o, trajectory.tum, odometry.tum), on their save
-/// services and, with on_shutdown, when they stop (SIGINT, roslaunch shutdown, unloading); the
+/// services, every period_s and, with on_shutdown, when they stop (SIGINT, roslaunch shutdown,
+/// unloading); the
 /// Preprocessor keeps its keyframe ids' journal there (keyframe_ids) all along.
 struct SaveSettings {
   /// Left empty, load() sets $ROS_HOME/ccir_mapping/<robot_name> (~/.ros without ROS_HOME).
   std::string dir;
   bool on_shutdown = true;  // Mapper and Backend
+  /// Mapper and Backend: also save every period_s of mission time (0: only on the services and
+  /// at shutdown), so that a robot that dies keeps a recent map to resume.
+  double period_s = 0.0;
   /// Continue the mission of a previous run from dir (a robot restarted after a crash): keyframe
   /// ids after those it used, the Mapper from map.bt. Without it a run starts a new mission.
   bool resume = false;

@@ -132,9 +132,13 @@ std::string MapStage::save(const std::string& dir) {
   if (error) throw std::runtime_error("cannot create " + dir + ": " + error.message());
   const std::string path = dir + "/map.bt";
   waitForRebuild();
-  if (!map_->write([&](OccupancyMap& map) { return map.save(path); })) {
+  // Written aside and renamed over the last save: a crash mid-save leaves a whole map to resume.
+  const std::string aside = path + ".new";
+  if (!map_->write([&](OccupancyMap& map) { return map.save(aside); })) {
     throw std::runtime_error("cannot write " + path);
   }
+  std::filesystem::rename(aside, path, error);
+  if (error) throw std::runtime_error("cannot write " + path + ": " + error.message());
   return path;
 }
 

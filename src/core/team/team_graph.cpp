@@ -517,15 +517,21 @@ std::vector<std::string> TeamGraph::save(const std::string& dir) const {
   const std::string graph = dir + "/team_graph.g2o";
   const std::string trajectory = dir + "/trajectory.tum";
   const std::string odometry = dir + "/odometry.tum";
-  saveG2o(graph);
+  // Each written aside and renamed over the last save: a crash mid-save leaves whole files.
+  const std::string aside = ".new";
+  saveG2o(graph + aside);
   TumTrajectoryWriter::write(
-      trajectory,
+      trajectory + aside,
       "stamp x y z qx qy qz qw: " + robot_ + "'s keyframes in its map frame (" +
           std::to_string(last_own_count_) + " optimised, newer ones by odometry)",
       this->trajectory());
   TumTrajectoryWriter::write(
-      odometry, "stamp x y z qx qy qz qw: " + robot_ + "'s keyframes in its odometry frame",
+      odometry + aside, "stamp x y z qx qy qz qw: " + robot_ + "'s keyframes in its odometry frame",
       this->odometry());
+  for (const std::string& file : {graph, trajectory, odometry}) {
+    std::filesystem::rename(file + aside, file, error);
+    if (error) throw std::runtime_error("cannot write " + file + ": " + error.message());
+  }
   return {graph, trajectory, odometry};
 }
 
