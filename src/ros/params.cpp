@@ -163,7 +163,7 @@ void load(ParamReader& reader, PreprocessorSettings& config) {
   reader.addErrors(l.validate());
   load(reader, config.frames.robot_name, config.save, /*writes_files=*/false);
   if (config.save.resume && config.odom_source == "lidar") {
-    // The journal's teammates and graph chain the new keyframes to the old by odometry.
+    // Teammates and the resumed team graph chain the new keyframes to the old by odometry.
     reader.addError(
         "resume = true needs odometry that outlives the manager (odom_source topic "
         "or tf): lidar odometry starts again at the origin");

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -654,9 +655,13 @@ TEST_F(Corridor, AResumedWorkerRebuildsTheGraphTheJournalKeptAndCarriesOn) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("team_graph_inputs:78"), std::string::npos) << e.what();
   }
-  // Without resume a new mission starts the file anew.
+  // Without resume a new mission starts the file anew; the last mission's stays beside.
   EXPECT_TRUE(TeamGraphJournal(dir, "robot_a", false).takeSaved().empty());
   EXPECT_TRUE(TeamGraphJournal(dir, "robot_a", true).takeSaved().empty());
+  std::ifstream previous(dir + "/team_graph_inputs.previous");
+  const std::string text((std::istreambuf_iterator<char>(previous)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("K robot_a 1031 nan"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
 

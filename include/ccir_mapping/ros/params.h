@@ -27,8 +27,8 @@ struct RobotFrames {
 /// Where a robot keeps what outlives its process: the Mapper writes its map (map.bt), the Backend
 /// its team graph and trajectories (team_graph.g2o, trajectory.tum, odometry.tum), on their save
 /// services, every period_s and, with on_shutdown, when they stop (SIGINT, roslaunch shutdown,
-/// unloading); the
-/// Preprocessor keeps its keyframe ids' journal there (keyframe_ids) all along.
+/// unloading); the Preprocessor (keyframe_ids) and the Backend (team_graph_inputs) keep their
+/// journals there all along.
 struct SaveSettings {
   /// Left empty, load() sets $ROS_HOME/ccir_mapping/<robot_name> (~/.ros without ROS_HOME).
   std::string dir;
@@ -37,7 +37,8 @@ struct SaveSettings {
   /// at shutdown), so that a robot that dies keeps a recent map to resume.
   double period_s = 0.0;
   /// Continue the mission of a previous run from dir (a robot restarted after a crash): keyframe
-  /// ids after those it used, the Mapper from map.bt. Without it a run starts a new mission.
+  /// ids after those it used, the team graph from its inputs, the map from map.bt. Without it a
+  /// run starts a new mission.
   bool resume = false;
 };
 

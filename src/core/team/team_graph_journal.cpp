@@ -165,6 +165,10 @@ TeamGraphJournal::TeamGraphJournal(const std::string& dir, const std::string& ro
     }
   }
   const bool keep = resume && std::filesystem::exists(path_) && std::filesystem::file_size(path_);
+  if (!resume && std::filesystem::exists(path_)) {
+    std::filesystem::rename(path_, path_ + ".previous", error);
+    if (error) throw std::runtime_error("cannot write " + path_ + ": " + error.message());
+  }
   file_ = std::fopen(path_.c_str(), keep ? "a" : "w");
   if (!file_) throw std::runtime_error("cannot write " + path_);
   if (!keep) {

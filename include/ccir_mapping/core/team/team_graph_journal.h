@@ -21,7 +21,9 @@ class TeamGraphJournal {
   static constexpr const char* kFileName = "team_graph_inputs";
 
   /// The journal of robot `robot` in DIR (created). With `resume`, what the file holds is read
-  /// (saved()) and kept; without, the file starts empty (a new mission). Throws
+  /// (takeSaved()) and kept; without, a new mission starts an empty file, and the last one's is
+  /// kept beside as DIR/team_graph_inputs.previous (a restart that forgot resume can be undone
+  /// by renaming it back). Throws
   /// std::runtime_error naming the file (and line) when it cannot be read or written, or holds
   /// another robot's inputs.
   TeamGraphJournal(const std::string& dir, const std::string& robot, bool resume);
