@@ -43,11 +43,14 @@ TEST(KeyframeIdJournal, AResumedRunContinuesAboveEveryIdAKilledRunUsed) {
   EXPECT_GT(KeyframeIdJournal(dir, true).first(), resumed.first() + 5000);
 }
 
-TEST(KeyframeIdJournal, WithoutResumeANewMissionStartsAtZeroAgain) {
+TEST(KeyframeIdJournal, WithoutResumeANewMissionStartsAtZeroAgainAndKeepsTheLastOneBeside) {
   const std::string dir = freshDir("again");
   KeyframeIdJournal(dir, false).use(4000);
   EXPECT_EQ(KeyframeIdJournal(dir, false).first(), 0u);
   EXPECT_EQ(KeyframeIdJournal(dir, true).first(), KeyframeIdJournal::kBlock);
+  // Renamed back, the mission before continues above its ids.
+  std::filesystem::rename(dir + "/keyframe_ids.previous", dir + "/keyframe_ids");
+  EXPECT_EQ(KeyframeIdJournal(dir, true).first(), 4000u + KeyframeIdJournal::kBlock);
 }
 
 TEST(KeyframeIdJournal, ResumingWithNothingSavedStartsAtZero) {

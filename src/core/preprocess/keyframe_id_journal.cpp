@@ -42,6 +42,9 @@ KeyframeIdJournal::KeyframeIdJournal(const std::string& dir, bool resume)
   if (resume && std::filesystem::exists(path_)) {
     first_ = readCeiling(path_);
     resumed_ = true;
+  } else if (std::filesystem::exists(path_)) {  // a new mission: the last one's kept beside
+    std::filesystem::rename(path_, path_ + ".previous", error);
+    if (error) throw std::runtime_error("cannot write " + path_ + ": " + error.message());
   }
   reserve(first_ + kBlock);
 }

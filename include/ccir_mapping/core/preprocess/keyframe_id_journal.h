@@ -18,8 +18,9 @@ class KeyframeIdJournal {
   static constexpr const char* kFileName = "keyframe_ids";
 
   /// The journal DIR/keyframe_ids (DIR created). With `resume`, ids continue above those the
-  /// file reserved (from 0 when there is no file: nothing to resume); without, from 0. Either
-  /// way the first block is reserved at once. Throws std::runtime_error naming the file when it
+  /// file reserved (from 0 when there is no file: nothing to resume); without, from 0, the last
+  /// mission's file kept beside as keyframe_ids.previous. Either way the first block is
+  /// reserved at once. Throws std::runtime_error naming the file when it
   /// cannot be read, is not a journal, or cannot be written.
   KeyframeIdJournal(const std::string& dir, bool resume);
 
