@@ -13,14 +13,12 @@ the three robots' as points. In the two robots' run robot_b's clock is 30 s ahea
 was never synchronised: stamps from a teammate must not be compared with one's own."""
 import os
 import shutil
-import subprocess
 import tempfile
 import unittest
 
 import numpy
 import rospy
 import rosunit
-import yaml
 
 from rostest_processes import Processes
 
@@ -40,19 +38,6 @@ class CcirTeam(Processes, unittest.TestCase):
     def tearDown(self):
         self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
-
-    def latest(self, topic, port):
-        """The next message on a topic of one master, as a dict (None if none in 10 s)."""
-        try:
-            result = subprocess.run(["rostopic", "echo", "-n", "1", topic], env=self.env(port),
-                                    capture_output=True, text=True, timeout=30)
-        except subprocess.TimeoutExpired:  # a busy machine; the caller asks again
-            return None
-        text = result.stdout.split("\n---")[0]
-        try:
-            return yaml.safe_load(text) if text.strip() else None
-        except yaml.YAMLError:
-            return None
 
     def run_team(self, robots, encoding="cloud", late=()):
         """`late`: robots replaying late_mission, their clocks ahead of the others'."""

@@ -11,13 +11,11 @@ after the restart is refused as a duplicate."""
 import os
 import shutil
 import signal
-import subprocess
 import tempfile
 import unittest
 
 import rospy
 import rosunit
-import yaml
 
 from rostest_processes import Processes, descendants
 
@@ -36,19 +34,6 @@ class RobotRestart(Processes, unittest.TestCase):
     def tearDown(self):
         self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
-
-    def latest(self, topic, port):
-        """The next message on a topic of one master, as a dict (None if none in 30 s)."""
-        try:
-            result = subprocess.run(["rostopic", "echo", "-n", "1", topic], env=self.env(port),
-                                    capture_output=True, text=True, timeout=30)
-        except subprocess.TimeoutExpired:  # a busy machine; the caller asks again
-            return None
-        text = result.stdout.split("\n---")[0]
-        try:
-            return yaml.safe_load(text) if text.strip() else None
-        except yaml.YAMLError:
-            return None
 
     def play(self, robot, port, *window):
         player = self.spawn("play_%s_%s" % (robot, "_".join(window) or "all"),

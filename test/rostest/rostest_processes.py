@@ -8,6 +8,7 @@ import subprocess
 import time
 
 import rosgraph
+import yaml
 
 TEAM_KEY = "rostest-team-key"
 
@@ -107,6 +108,19 @@ class Processes:
                           ["roslaunch", "ccir_mapping", "robot.launch", "robot:=" + robot,
                            "use_sim_time:=true", "overrides:=" + config] + launch_args,
                           master_port)
+
+    def latest(self, topic, port):
+        """The next message on a topic of one master, as a dict (None if none within 30 s)."""
+        try:
+            result = subprocess.run(["rostopic", "echo", "-n", "1", topic], env=self.env(port),
+                                    capture_output=True, text=True, timeout=30)
+        except subprocess.TimeoutExpired:  # a busy machine; the caller asks again
+            return None
+        text = result.stdout.split("\n---")[0]
+        try:
+            return yaml.safe_load(text) if text.strip() else None
+        except yaml.YAMLError:
+            return None
 
     def wait_for(self, condition, timeout_s, what, poll_s=0.2):
         deadline = time.monotonic() + timeout_s
