@@ -171,9 +171,9 @@ TeamGraphJournal::TeamGraphJournal(const std::string& dir, const std::string& ro
   }
   file_ = std::fopen(path_.c_str(), keep ? "a" : "w");
   if (!file_) throw std::runtime_error("cannot write " + path_);
-  if (!keep) {
-    std::fprintf(file_, "%s\n", header.c_str());
-    if (std::fflush(file_) != 0) throw std::runtime_error("cannot write " + path_);
+  if (!keep && (std::fprintf(file_, "%s\n", header.c_str()) < 0 || std::fflush(file_) != 0)) {
+    std::fclose(file_);  // no destructor after a throwing constructor
+    throw std::runtime_error("cannot write " + path_);
   }
 }
 
