@@ -3,6 +3,7 @@
 // manager keep running.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <map>
 #include <utility>
 
@@ -36,23 +37,23 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
       "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
         for (const auto& s : m->status) status[s.name] = s;
       });
-  auto fatal = [&](const std::string& text) {
+  auto logged = [&](std::uint8_t level, const std::string& text) {
     for (const auto& m : log) {
-      if (m->level == rosgraph_msgs::Log::FATAL && m->msg.find(text) != std::string::npos)
-        return true;
+      if (m->level == level && m->msg.find(text) != std::string::npos) return true;
     }
     return false;
   };
+  auto fatal = [&](const std::string& text) { return logged(rosgraph_msgs::Log::FATAL, text); };
 
   // /rosout is not latched: load the nodelets only once this test hears the manager's log.
   ASSERT_TRUE(ros::service::waitForService("/manager/load_nodelet", ros::Duration(30.0)));
   ASSERT_TRUE(waitFor([&] { return ccir_mapping::testing::linkedToAllPublishers(log_sub); }, 30.0))
       << "not linked to every /rosout publisher (" << log_sub.getNumPublishers() << " of "
       << ccir_mapping::testing::registeredPublishers("/rosout") << ")";
-  const std::pair<const char*, const char*> nodelets[] = {{"preprocessor", "Preprocessor"},
-                                                          {"bridge", "Bridge"},
-                                                          {"matcher", "Matcher"},
-                                                          {"matcher_without_model", "Matcher"}};
+  const std::pair<const char*, const char*> nodelets[] = {
+      {"preprocessor", "Preprocessor"}, {"bridge", "Bridge"},
+      {"matcher", "Matcher"},           {"matcher_without_model", "Matcher"},
+      {"backend_resuming", "Backend"},  {"backend", "Backend"}};
   for (const auto& [name, type] : nodelets) {
     nodelet::NodeletLoad load;
     load.request.name = std::string("/") + name;
@@ -72,11 +73,22 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
             "not a directory");
       },
       30.0));
+  // Resuming from a save_dir that cannot be created is fatal; without resume the Backend runs,
+  // its graph not journaled.
+  EXPECT_TRUE(waitFor(
+      [&] {
+        return fatal("cannot create /proc/ccir_mapping_cannot_write") &&
+               fatal("(save_dir, resume)");
+      },
+      30.0));
+  EXPECT_TRUE(waitFor(
+      [&] { return logged(rosgraph_msgs::Log::ERROR, "(save_dir): not journaled"); }, 30.0));
   // Diagnostics say why the nodelets are inert (published a second after onInit returned).
   ASSERT_TRUE(waitFor(
       [&] {
         return status.count("preprocessor: flow") && status.count("bridge: flow") &&
-               status.count("matcher: flow") && status.count("matcher_without_model: flow");
+               status.count("matcher: flow") && status.count("matcher_without_model: flow") &&
+               status.count("backend_resuming: flow") && status.count("backend: flow");
       },
       30.0))
       << [&] {
@@ -88,6 +100,8 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   EXPECT_EQ(status["bridge: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["matcher: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);
   EXPECT_EQ(status["matcher_without_model: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_EQ(status["backend_resuming: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_EQ(status["backend: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);
   ASSERT_FALSE(status["preprocessor: flow"].values.empty());
   EXPECT_EQ(status["preprocessor: flow"].values[0].value,
             "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");
@@ -95,6 +109,7 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   EXPECT_FALSE(advertised("/keyframes"));
   EXPECT_FALSE(advertised("/link_stats"));
   EXPECT_TRUE(advertised("/features"));
+  EXPECT_TRUE(advertised("/trajectory")) << "the Backend without resume runs unjournaled";
 }
 
 }  // namespace
