@@ -1,6 +1,6 @@
 // Backend: keyframes + loop closures -> optimised trajectory, map -> odom and team transforms on
 // tf, TeamTransform, teammates' keyframes as the team graph places them, pose uncertainty.
-// Callbacks hand their input to the core's TeamGraphWorker, which optimises on its own thread
+// Callbacks hand their input to core::backend::BackendStage, which optimises on its own thread
 // (at optimize_period_s and as soon as a loop closure arrives) and routes each loop closure.
 #include <mutex>
 
@@ -10,8 +10,7 @@
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "ccir_mapping/core/team/team_graph_journal.h"
-#include "ccir_mapping/core/team/team_graph_worker.h"
+#include "ccir_mapping/core/backend/backend_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
@@ -19,37 +18,34 @@
 
 namespace ccir_mapping {
 
-using core::team::TeamGraph;
-using Worker = core::team::TeamGraphWorker;
+using Stage = core::backend::BackendStage;
 
 class BackendNodelet final : public PipelineNodelet {
  public:
   ~BackendNodelet() override {
     std::string message;
-    if (worker_ && settings_.save.on_shutdown) save(&message);
+    if (stage_ && settings_.save.on_shutdown) save(&message);
   }
 
  private:
   void onInit() override {
     if (!loadSettings(settings_)) return;
-    Worker::Hooks hooks;
-    hooks.run = [this](const auto& batch) { return measured("optimise", batch); };
-    hooks.optimized = [this](const auto& snapshot, const TeamGraph& graph) {
-      onOptimized(snapshot, graph);
-    };
-    hooks.refused = [this](Worker::Refusal why, const std::string& what) {
-      const auto report = Worker::reportOf(why);
-      if (!report.dropped) return count(report.flow);
-      drop(report.flow, "dropping %s (from %s)", what.c_str(), report.flow);
+    Stage::Hooks hooks;
+    hooks.run = [this](const char* stage, const auto& work) { measured(stage, work); };
+    hooks.optimized = [this](const Stage::Output& out) { onOptimized(out); };
+    hooks.refused = [this](const Stage::Refusal& r) {
+      if (!r.dropped) return count(r.notice.kind);
+      drop(r.notice.kind, "%s", r.notice.text.c_str());
     };
     hooks.unjournaled = [this](const std::string& why) {
       drop("journal", "an input was not journaled (a restart cannot resume it): %s", why.c_str());
     };
-    if (!openJournal(journal_, settings_.save.resume, settings_.save.dir, robot(),
-                     settings_.save.resume)) {
-      return;
+    hooks.wants_uncertainty = [this] { return listened(topics::kKeyframeUncertainty); };
+    stage_ = std::make_unique<Stage>(robot(), settings_.core, hooks);
+    const auto& saving = settings_.save;
+    if (!openJournal(saving.resume, [&] { stage_->openJournal(saving.dir, saving.resume); })) {
+      return stage_.reset();
     }
-    worker_ = std::make_unique<Worker>(std::make_unique<TeamGraph>(robot(), settings_.core), hooks);
     advertise<nav_msgs::Path>(topics::kTrajectory, 1, /*latch=*/true);
     advertise<TeamTransform>(topics::kTeamTransforms, topics::kMessageQueueSize);
     advertise<TeamKeyframePoses>(topics::kTeamKeyframePoses, topics::kMessageQueueSize);
@@ -59,14 +55,14 @@ class BackendNodelet final : public PipelineNodelet {
     // received, so without them a pair's two robots each see part of its closures.
     advertise<LoopClosure>(topics::kOutboxLoopClosures, topics::kLoopClosureQueueSize);
     // The previous run's inputs before any new one (own keyframe ids must increase).
-    if (const std::size_t resumed = journal_ ? worker_->keepJournal(*journal_) : 0)
+    if (const std::size_t resumed = stage_->keepJournal())
       NODELET_INFO("resumed the team graph from %zu inputs in save_dir", resumed);
     subscribe(topics::kKeyframes, topics::kKeyframeQueueSize, &BackendNodelet::onKeyframe);
     subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize, &BackendNodelet::onPeerKeyframe);
     subscribe(topics::kLoopClosures, topics::kLoopClosureQueueSize, &BackendNodelet::onLoopClosure);
     subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
               &BackendNodelet::onTeammateLoopClosure);
-    createPeriodicTimer(settings_.core.optimize_period_s, [this] { worker_->tick(); });
+    createPeriodicTimer(settings_.core.optimize_period_s, [this] { stage_->tick(); });
     if (settings_.save.period_s > 0)
       createPeriodicTimer(settings_.save.period_s, [this] {
         std::string message;
@@ -78,15 +74,7 @@ class BackendNodelet final : public PipelineNodelet {
 
   /// After the optimisation under way, if any.
   bool save(std::string* message) {
-    return saveFiles(
-        [this]() -> std::optional<std::vector<std::string>> {
-          std::vector<std::string> files;
-          if (!worker_->inspect([&](const TeamGraph& g) { files = g.save(settings_.save.dir); })) {
-            return std::nullopt;
-          }
-          return files;
-        },
-        message);
+    return saveFiles([this] { return stage_->save(settings_.save.dir); }, message);
   }
 
   bool onSaveGraph(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
@@ -97,30 +85,31 @@ class BackendNodelet final : public PipelineNodelet {
   const std::string& robot() const { return settings_.frames.robot_name; }
 
   void onKeyframe(const Keyframe& k) {
-    worker_->add(Worker::OwnKeyframe{k.robot, k.id, conversions::toStamp(k.header.stamp),
-                                     conversions::toPose(k.odom_pose)});
+    stage_->add(Stage::OwnKeyframe{k.robot, k.id, conversions::toStamp(k.header.stamp),
+                                   conversions::toPose(k.odom_pose)});
   }
   void onPeerKeyframe(const Keyframe& k) {
-    worker_->add(Worker::PeerKeyframe{k.robot, k.id, conversions::toPose(k.odom_pose)});
+    stage_->add(Stage::PeerKeyframe{k.robot, k.id, conversions::toPose(k.odom_pose)});
   }
 
   void onLoopClosure(const LoopClosure::ConstPtr& msg) {
-    if (const auto loop = toLoop(*msg, "loop_closures"); loop && worker_->addOwnLoop(*loop)) {
+    if (const auto loop = toLoop(*msg, "loop_closures"); loop && stage_->addOwnLoop(*loop)) {
       publish(topics::kOutboxLoopClosures, msg);
     }
   }
   void onTeammateLoopClosure(const LoopClosure& msg) {
-    if (const auto loop = toLoop(msg, "inbox/loop_closures")) worker_->addTeammateLoop(*loop);
+    if (const auto loop = toLoop(msg, "inbox/loop_closures")) stage_->addTeammateLoop(*loop);
   }
-  std::optional<core::backend::LoopClosureData> toLoop(const LoopClosure& msg, const char* flow) {
-    core::backend::LoopClosureData loop;
+  std::optional<core::pose_graph::LoopClosureData> toLoop(const LoopClosure& msg, const char* flow) {
+    core::pose_graph::LoopClosureData loop;
     if (conversions::toLoopClosure(msg, &loop)) return loop;
     drop(flow, "dropping a loop closure from %s: relative pose not finite", flow);
     return std::nullopt;
   }
 
   // On the worker's thread.
-  void onOptimized(const core::team::BackendSnapshot& snapshot, const TeamGraph& graph) {
+  void onOptimized(const Stage::Output& out) {
+    const core::backend::BackendSnapshot& snapshot = out.snapshot;
     if (snapshot.poses.empty()) return;
     const std::string& map_frame = settings_.frames.map_frame;
     const ros::Time stamp = conversions::toRosTime(snapshot.stamps.back());
@@ -150,13 +139,10 @@ class BackendNodelet final : public PipelineNodelet {
       tf_broadcaster_.sendTransform(
           conversions::toTfMsgs(snapshot, map_frame, settings_.frames.odom_frame, last_tf_stamp_));
     }
-    if (listened(topics::kKeyframeUncertainty)) {  // the Broker's u_k (CCIR)
-      if (const auto variances =
-              measured("uncertainty", [&] { return graph.positionVariances(snapshot.ids); })) {
-        publish(topics::kKeyframeUncertainty,
-                boost::make_shared<const KeyframeUncertainty>(conversions::toKeyframeUncertaintyMsg(
-                    robot(), path->header, snapshot.ids, *variances)));
-      }
+    if (out.uncertainty) {  // the Broker's u_k (CCIR)
+      publish(topics::kKeyframeUncertainty,
+              boost::make_shared<const KeyframeUncertainty>(conversions::toKeyframeUncertaintyMsg(
+                  robot(), path->header, snapshot.ids, *out.uncertainty)));
     }
     std::lock_guard<std::mutex> lock(stats_mutex_);
     last_solve_s_ = snapshot.solve_s;
@@ -175,11 +161,10 @@ class BackendNodelet final : public PipelineNodelet {
   ros_params::BackendSettings settings_;
   std::mutex stats_mutex_;
   double last_solve_s_ = 0.0;  // the newest optimisation's, for diagnostics
-  core::team::BackendSnapshot::LoopCounts last_loops_;
+  core::backend::BackendSnapshot::LoopCounts last_loops_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_stamp_;  // of the last transforms sent (worker thread only)
-  std::optional<core::team::TeamGraphJournal> journal_;  // outlives the worker that writes it
-  std::unique_ptr<Worker> worker_;  // stopped after the service, while what it publishes with lives
+  std::unique_ptr<Stage> stage_;  // stopped after the service, while what it publishes with lives
   ros::ServiceServer save_srv_;
 };
 

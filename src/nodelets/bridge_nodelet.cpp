@@ -1,14 +1,13 @@
 // Bridge: carries the outbox topics to teammates' ROS masters and republishes theirs on the
 // inbox (names: ros/topic_routes.h). Any message type: subscribed as topic_tools::ShapeShifter
 // (type, md5, definition and latching come from the publisher's connection header) and
-// republished from the bytes and that description. The network side is core::transport::Bridge;
+// republished from the bytes and that description. The network side is core::transport::BridgeStage;
 // this nodelet converts and reports.
 #include <topic_tools/shape_shifter.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/core/common/rate_meter.h"
-#include "ccir_mapping/core/transport/bridge.h"
-#include "ccir_mapping/core/transport/inbox_publishers.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topic_routes.h"
@@ -33,7 +32,7 @@ class BridgeNodelet final : public PipelineNodelet {
         },
         kNewTopicHoldS);
     try {
-      bridge_ = std::make_unique<transport::Bridge>(
+      bridge_ = std::make_unique<transport::BridgeStage>(
           settings_.core, settings_.frames.robot_name,
           [this](const std::string& peer, transport::InboxMessage m) { onInbox(peer, m); },
           [this](bool warning, const std::string& text) {
@@ -108,7 +107,7 @@ class BridgeNodelet final : public PipelineNodelet {
 
   /// Replaying, the budgets hold per mission second (MissionClock), so that a replay at any
   /// speed sends what the robots would have sent; live, the bridge keeps its monotonic clock.
-  static transport::Bridge::Clock clock() {
+  static transport::BridgeStage::Clock clock() {
     if (!ros::Time::isSimTime()) return {};
     // The bridge calls it under its own lock.
     return [reader = std::make_shared<MissionClockReader>()] { return reader->now(); };
@@ -142,7 +141,7 @@ class BridgeNodelet final : public PipelineNodelet {
   core::RateMeter send_rate_;  // bytes sent per link
   std::unique_ptr<Inboxes> inboxes_;
   // Last, so it is destroyed first: its thread calls onInbox.
-  std::unique_ptr<transport::Bridge> bridge_;
+  std::unique_ptr<transport::BridgeStage> bridge_;
 };
 
 }  // namespace ccir_mapping

@@ -1,6 +1,6 @@
 // Mapper: own keyframes and teammates' scans -> the robot's occupancy map (OctoMap), which follows
 // the Backend's optimised poses (own and, from the team graph, teammates') by rebuilding
-// (core/information/map_stage.h). Publishes the
+// (core/information/mapper_stage.h). Publishes the
 // occupied voxels while someone listens and the map's entropy and known volume; saves the map on
 // ~save_map and at shutdown (save_dir); shares it in-process with the Broker
 // (core/information/shared_map.h).
@@ -10,7 +10,7 @@
 #include <std_srvs/Trigger.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "ccir_mapping/core/information/map_stage.h"
+#include "ccir_mapping/core/information/mapper_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/topics.h"
@@ -30,12 +30,12 @@ class MapperNodelet final : public PipelineNodelet {
  private:
   void onInit() override {
     if (!loadSettings(settings_)) return;
-    info::MapStage::Hooks hooks;
+    info::MapperStage::Hooks hooks;
     hooks.run = [this](const char* stage, const auto& work) { measured(stage, work); };
     hooks.rebuilt = [this](std::size_t scans, double seconds) {
       NODELET_INFO("map rebuilt at the optimised poses from %zu scans in %.1f s", scans, seconds);
     };
-    stage_ = std::make_unique<info::MapStage>(settings_.frames.robot_name, settings_.core, hooks);
+    stage_ = std::make_unique<info::MapperStage>(settings_.frames.robot_name, settings_.core, hooks);
     try {
       if (settings_.save.resume && stage_->resume(settings_.save.dir)) {
         NODELET_INFO("resuming the map saved in %s", settings_.save.dir.c_str());
@@ -44,7 +44,7 @@ class MapperNodelet final : public PipelineNodelet {
       stage_.reset();  // inert, and nothing saved over the file at shutdown
       return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
     }
-    info::SharedMap::registerMap(settings_.frames.robot_name, stage_->map());
+    info::SharedMap::registerMap(getName(), stage_->map());  // for the Broker (its `mapper`)
     advertise<sensor_msgs::PointCloud2>(topics::kMapCloud, 1);
     advertise<MapStats>(topics::kMapStats, topics::kMessageQueueSize);
     subscribe(topics::kKeyframes, topics::kKeyframeQueueSize, &MapperNodelet::onKeyframe);
@@ -141,7 +141,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   ros_params::MapperSettings settings_;
-  std::unique_ptr<info::MapStage> stage_;
+  std::unique_ptr<info::MapperStage> stage_;
   ros::ServiceServer save_srv_;
 };
 

@@ -47,14 +47,18 @@ class PipelineNodelet : public nodelet::Nodelet {
     return reportSettings(reader, settings.frames.robot_name);
   }
 
-  /// Another nodelet's settings of this robot (in its private namespace `name` beside this
-  /// one's, e.g. the Broker reads the Bridge's peers); the defaults, with a warning, when they do
-  /// not validate (that nodelet reports why).
+  /// The settings of another nodelet of this robot, named `name` (this nodelet's parameter
+  /// `key`), e.g. the Broker reads its Bridge's peers. nullopt, after failConfiguration naming
+  /// `key`, when that nodelet has no parameters (none of that name is launched); the defaults,
+  /// with a warning, when they do not validate (that nodelet reports why).
   template <class Settings>
-  Settings siblingSettings(const std::string& name) {
+  std::optional<Settings> siblingSettings(const std::string& key, const std::string& name) {
     const std::string ns = getNodeHandle().resolveName(name);
     XmlRpc::XmlRpcValue values;
-    ros::param::get(ns, values);
+    if (!ros::param::get(ns, values)) {
+      failConfiguration(key + ": no nodelet named " + ns + " (it has no parameters)");
+      return std::nullopt;
+    }
     ros_params::ParamReader reader(values, ns);
     Settings settings;
     load(reader, settings);
@@ -65,16 +69,22 @@ class PipelineNodelet : public nodelet::Nodelet {
   }
 
   /// A configuration error found after loadSettings (e.g. a file a parameter names): logs it as
-  /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert.
+  /// FATAL and reports it on diagnostics like an invalid parameter. The caller stays inert (one
+  /// found once running calls stopWork first).
   void failConfiguration(const std::string& error);
+  /// Ends every subscription and periodic timer: the nodelet does nothing more.
+  void stopWork() {
+    subscribers_.clear();
+    timers_.clear();
+  }
 
-  /// Opens a journal in save_dir (constructed from `args`, which throws what it cannot do).
-  /// False when it could not and `resume` was asked for (failConfiguration: the caller stays
-  /// inert); without `resume` the error is logged and the nodelet runs without (`journal` unset).
-  template <class Journal, class... Args>
-  bool openJournal(std::optional<Journal>& journal, bool resume, Args&&... args) {
+  /// Runs `open`, which opens a stage's journal in save_dir and throws what it cannot do. False
+  /// when it could not and `resume` was asked for (failConfiguration: the caller stays inert);
+  /// without `resume` the error is logged and the nodelet runs unjournaled.
+  template <class Open>
+  bool openJournal(bool resume, Open open) {
     try {
-      journal.emplace(std::forward<Args>(args)...);
+      open();
     } catch (const std::exception& e) {
       if (resume) {
         failConfiguration(std::string(e.what()) + " (save_dir, resume)");

@@ -1,6 +1,6 @@
 // Preprocessor: velodyne_points + odometry -> keyframes. Checks each cloud, lets it wait until it
 // can be placed (ScanPlacement: tf, odometry or lidar odometry, which it then broadcasts on tf),
-// hands it to core::preprocess::KeyframeStage, which decides keyframes and filters them, and
+// hands it to core::preprocess::PreprocessorStage, which decides keyframes and filters them, and
 // publishes them zero-copy.
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -9,8 +9,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/Keyframe.h"
-#include "ccir_mapping/core/preprocess/keyframe_id_journal.h"
-#include "ccir_mapping/core/preprocess/keyframe_stage.h"
+#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/reconfigure_tables.h"
@@ -20,7 +19,7 @@
 
 namespace ccir_mapping {
 
-using core::preprocess::KeyframeStage;
+using core::preprocess::PreprocessorStage;
 using sensor_msgs::PointCloud2;
 
 class PreprocessorNodelet final : public PipelineNodelet {
@@ -28,13 +27,14 @@ class PreprocessorNodelet final : public PipelineNodelet {
   void onInit() override {
     if (!loadSettings(settings_)) return;
     ros::NodeHandle& nh = getNodeHandle();
-    if (!openJournal(journal_, settings_.save.resume, settings_.save.dir, settings_.save.resume))
-      return;
-    stage_ = std::make_unique<KeyframeStage>(settings_.core);
-    if (journal_) stage_->startIdsAt(journal_->first());
-    if (journal_ && journal_->resumed())
-      NODELET_INFO("resuming: keyframe ids from %lu on",
-                   static_cast<unsigned long>(journal_->first()));
+    stage_ = std::make_unique<PreprocessorStage>(settings_.core);
+    const auto& save = settings_.save;
+    if (!openJournal(save.resume, [&] {
+          if (const auto first = stage_->keepIdJournal(save.dir, save.resume))
+            NODELET_INFO("resuming: keyframe ids from %lu on", static_cast<unsigned long>(*first));
+        })) {
+      return stage_.reset();
+    }
     placement_ = std::make_unique<ScanPlacement>(settings_, nh.resolveName(topics::kOdometry));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(placement_->tf(), nh);
     if (settings_.odom_source == "lidar") tf_broadcaster_.emplace();
@@ -109,12 +109,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
                     result.dropped() ? "dropping" : "about the", msg.header.stamp.toSec(),
                     notice.text.c_str());
       }
-      if (result.outcome != KeyframeStage::Outcome::kKeyframe) continue;
-      try {
-        if (journal_) journal_->use(result.decision.id);
-      } catch (const std::exception& e) {  // the keyframe still goes out
-        NODELET_ERROR_THROTTLE(60.0, "%s: a restart with resume may reuse keyframe ids", e.what());
-      }
+      if (result.outcome != PreprocessorStage::Outcome::kKeyframe) continue;
       publish(topics::kKeyframes,
               boost::make_shared<const Keyframe>(conversions::toKeyframeMsg(
                   msg.header, settings_.frames.robot_name, settings_.frames.odom_frame,
@@ -146,10 +141,9 @@ class PreprocessorNodelet final : public PipelineNodelet {
   }
 
   ros_params::PreprocessorSettings settings_;
-  std::unique_ptr<KeyframeStage> stage_;
-  std::optional<core::preprocess::KeyframeIdJournal> journal_;
+  std::unique_ptr<PreprocessorStage> stage_;
   std::unique_ptr<ScanPlacement> placement_;  // with the scans waiting to be placed
-  KeyframeStage::InputCloud scan_;            // conversion buffer, reused scan after scan
+  PreprocessorStage::InputCloud scan_;            // conversion buffer, reused scan after scan
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::optional<tf2_ros::TransformBroadcaster> tf_broadcaster_;  // odom_source "lidar"
   ros::SteadyTimer tf_poll_timer_;

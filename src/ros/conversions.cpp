@@ -153,7 +153,7 @@ nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
   return path;
 }
 
-bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out) {
+bool toLoopClosure(const LoopClosure& msg, core::pose_graph::LoopClosureData* out) {
   const auto relative = toPose(msg.relative_pose);
   if (!relative) return false;
   out->robot_from = msg.robot_from;
@@ -172,7 +172,7 @@ bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out) 
   return true;
 }
 
-LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop) {
+LoopClosure toLoopClosureMsg(const core::pose_graph::LoopClosureData& loop) {
   LoopClosure msg;
   msg.robot_from = loop.robot_from;
   msg.keyframe_from = loop.keyframe_from;
@@ -190,7 +190,7 @@ LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop) {
   return msg;
 }
 
-visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::LoopLine>& lines,
+visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::backend::LoopLine>& lines,
                                                  const std::string& map_frame,
                                                  const ros::Time& stamp) {
   visualization_msgs::MarkerArray markers;
@@ -221,7 +221,7 @@ visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::L
   return markers;
 }
 
-TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
+TeamTransform toTeamTransformMsg(const core::backend::TeamEstimate& estimate,
                                  const std::string& map_frame, const ros::Time& stamp) {
   const auto& a = estimate.alignment;
   TeamTransform msg;
@@ -239,7 +239,7 @@ TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
   return msg;
 }
 
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendSnapshot& snapshot,
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::backend::BackendSnapshot& snapshot,
                                                       const std::string& map_frame,
                                                       const std::string& odom_frame,
                                                       const ros::Time& stamp) {
@@ -257,7 +257,7 @@ std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg) {
   return msg.valid ? toPose(msg.transform) : std::nullopt;
 }
 
-TeamKeyframePoses toTeamKeyframePosesMsg(const core::team::PeerKeyframes& keyframes,
+TeamKeyframePoses toTeamKeyframePosesMsg(const core::backend::PeerKeyframes& keyframes,
                                          const std::string& map_frame, const ros::Time& stamp) {
   TeamKeyframePoses msg;
   msg.header.stamp = stamp;
@@ -297,38 +297,44 @@ std::optional<std::vector<std::pair<core::KeyframeId, double>>> toVariances(
   return perKeyframe<double>(msg.keyframe_ids, msg.position_variance_m2);
 }
 
-KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header, const std::string& robot,
-                                       core::KeyframeId id, const std::string& vocabulary_hash,
-                                       const std::vector<std::uint32_t>& words,
-                                       std::size_t descriptor_count) {
+KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header,
+                                       const core::place_recognition::KeyframeWords& words) {
   KeyframeFeatures msg;
   msg.header = header;
-  msg.robot = robot;
-  msg.keyframe_id = id;
-  msg.vocabulary_hash = vocabulary_hash;
-  msg.words = words;
-  msg.descriptor_count = static_cast<std::uint32_t>(descriptor_count);
+  msg.robot = words.robot;
+  msg.keyframe_id = words.id;
+  msg.vocabulary_hash = words.vocabulary_hash;
+  msg.words = words.words;
+  msg.descriptor_count = words.descriptor_count;
   return msg;
 }
 
-Correspondences toCorrespondencesMsg(const std::string& robot, const std::string& peer,
-                                     core::KeyframeId peer_keyframe, const ros::Time& stamp,
-                                     const std::vector<std::pair<core::KeyframeId, int>>& counts) {
+core::place_recognition::KeyframeWords toKeyframeWords(const KeyframeFeatures& msg) {
+  return {msg.robot,           msg.keyframe_id, toStamp(msg.header.stamp),
+          msg.vocabulary_hash, msg.words,       msg.descriptor_count};
+}
+
+Correspondences toCorrespondencesMsg(const std::string& robot,
+                                     const core::place_recognition::KeyframeCorrespondences& c,
+                                     const ros::Time& stamp) {
   Correspondences msg;
   msg.header.stamp = stamp;
   msg.robot = robot;
-  msg.peer = peer;
-  msg.peer_keyframe_id = peer_keyframe;
-  for (const auto& [keyframe, count] : counts) {
+  msg.peer = c.peer;
+  msg.peer_keyframe_id = c.peer_keyframe;
+  for (const auto& [keyframe, count] : c.counts) {
     msg.keyframe_ids.push_back(keyframe);
     msg.counts.push_back(static_cast<std::uint32_t>(count));
   }
   return msg;
 }
 
-std::optional<std::vector<std::pair<core::KeyframeId, int>>> toCorrespondenceCounts(
+std::optional<core::place_recognition::KeyframeCorrespondences> toKeyframeCorrespondences(
     const Correspondences& msg) {
-  return perKeyframe<int>(msg.keyframe_ids, msg.counts);
+  auto counts = perKeyframe<int>(msg.keyframe_ids, msg.counts);
+  if (!counts) return std::nullopt;
+  return core::place_recognition::KeyframeCorrespondences{msg.peer, msg.peer_keyframe_id,
+                                                          std::move(*counts)};
 }
 
 void toPointCloud2(const core::LidarScan& scan, const std::string& frame,
@@ -506,36 +512,45 @@ std::optional<std::string> toScanPoints(const Keyframe& keyframe,
   return std::nullopt;
 }
 
-std::optional<std::string> toSharedScan(const Keyframe& keyframe,
-                                        const core::routing::BrokerParams& broker, SharedScan* out,
-                                        pcl::PointCloud<pcl::PointXYZ>* xyz,
-                                        core::Pose3* odom_pose) {
+std::optional<std::string> toWireScan(const Keyframe& keyframe,
+                                      const core::routing::BrokerParams& broker,
+                                      core::routing::WireScan* out,
+                                      pcl::PointCloud<pcl::PointXYZ>* xyz) {
   pcl::PointCloud<pcl::PointXYZINormal> cloud;
   if (auto error = toKeyframeCloud(keyframe.cloud, &cloud)) return error;
   const auto pose = toPose(keyframe.odom_pose);
   if (!pose) return "odom_pose is not finite";
-  if (xyz) pcl::copyPointCloud(cloud, *xyz);
-  if (odom_pose) *odom_pose = *pose;
-  std::string error;
-  auto encoded = core::routing::encodeKeyframeScan(cloud, broker, &error);
-  if (!encoded) return error;
-  out->header = keyframe.header;
   out->robot = keyframe.robot;
   out->id = keyframe.id;
-  out->odom_frame = keyframe.odom_frame;
-  out->odom_pose = keyframe.odom_pose;
+  out->stamp = toStamp(keyframe.header.stamp);
+  out->odom_pose = *pose;
   out->travelled_m = keyframe.travelled_m;
   out->rotated_rad = keyframe.rotated_rad;
-  out->encoding = broker.scan_encoding == core::routing::ScanEncoding::kGmm
-                      ? SharedScan::ENCODING_GMM
-                      : SharedScan::ENCODING_CLOUD;
-  out->point_count = static_cast<std::uint32_t>(cloud.size());
-  out->points = std::move(*encoded);
+  std::string error;
+  if (!core::routing::encodeWireScan(cloud, broker, out, &error)) return error;
+  if (xyz) pcl::copyPointCloud(cloud, *xyz);
   return std::nullopt;
 }
 
-std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
-                                      Keyframe* out) {
+SharedScan toSharedScanMsg(core::routing::WireScan&& scan, const std::string& sensor_frame,
+                           const std::string& odom_frame) {
+  SharedScan msg;
+  msg.header.stamp = toRosTime(scan.stamp);
+  msg.header.frame_id = sensor_frame;
+  msg.robot = std::move(scan.robot);
+  msg.id = scan.id;
+  msg.odom_frame = odom_frame;
+  msg.odom_pose = toPoseMsg(scan.odom_pose);
+  msg.travelled_m = scan.travelled_m;
+  msg.rotated_rad = scan.rotated_rad;
+  msg.encoding = scan.encoding == core::routing::ScanEncoding::kGmm ? SharedScan::ENCODING_GMM
+                                                                    : SharedScan::ENCODING_CLOUD;
+  msg.point_count = scan.point_count;
+  msg.points = std::move(scan.points);
+  return msg;
+}
+
+std::optional<std::string> toKeyframe(const SharedScan& scan, Keyframe* out) {
   if (scan.encoding != SharedScan::ENCODING_CLOUD && scan.encoding != SharedScan::ENCODING_GMM) {
     return "encoding " + std::to_string(scan.encoding) + " is unknown";
   }
@@ -543,8 +558,8 @@ std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_po
                             ? core::routing::ScanEncoding::kGmm
                             : core::routing::ScanEncoding::kCloud;
   std::string error;
-  const auto cloud = core::routing::decodeKeyframeScan(scan.points, encoding, scan.point_count,
-                                                       max_points, scan.id, &error);
+  const auto cloud =
+      core::routing::decodeWireScan(scan.points, encoding, scan.point_count, scan.id, &error);
   if (!cloud) return "points: " + error;
   if (!toPose(scan.odom_pose)) return std::string("odom_pose is not finite");
   pcl::toROSMsg(*cloud, out->cloud);
@@ -741,7 +756,7 @@ PeerRouting toPeerRoutingMsg(const std::string& peer, const core::routing::PeerC
 
 }  // namespace
 
-MapStats toMapStatsMsg(const core::information::MapStage::Stats& stats,
+MapStats toMapStatsMsg(const core::information::MapperStage::Stats& stats,
                        const core::information::MapperParams& params, const std::string& robot,
                        const std_msgs::Header& header) {
   MapStats msg;

@@ -28,7 +28,7 @@ void ParamReader::typeError(const std::string& key, const char* expected) {
 }
 
 void ParamReader::note(const std::string& key, const std::string& value) {
-  effective_.push_back(key + "=" + value);
+  effective_.emplace_back(key, value);
 }
 
 void ParamReader::read(const std::string& key, double& value) {
@@ -89,7 +89,9 @@ std::vector<std::string> ParamReader::unknownKeys() const {
 
 std::string ParamReader::summary() const {
   std::string text;
-  for (const std::string& item : effective_) text += (text.empty() ? "" : ", ") + item;
+  for (const auto& [key, value] : effective_) {
+    text += (text.empty() ? "" : ", ") + key + "=" + value;
+  }
   return text;
 }
 

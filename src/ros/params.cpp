@@ -209,8 +209,8 @@ void load(ParamReader& reader, BackendSettings& config) {
   load(reader, config.frames);
   reader.read("publish_tf", config.publish_tf);
   auto& p = config.core;
-  reader.readChoice("robust_kernel", p.robust_kernel, core::backend::parseRobustKernel,
-                    core::backend::kRobustKernelChoices, &core::backend::toString);
+  reader.readChoice("robust_kernel", p.robust_kernel, core::pose_graph::parseRobustKernel,
+                    core::pose_graph::kRobustKernelChoices, &core::pose_graph::toString);
   reader.read("switch_prior_sigma", p.switch_prior_sigma);
   reader.read("optimize_period_s", p.optimize_period_s);
   reader.read("max_solve_time_s", p.max_solve_time_s);
@@ -251,6 +251,13 @@ void load(ParamReader& reader, MapperSettings& config) {
 
 void load(ParamReader& reader, BrokerSettings& config) {
   load(reader, config.frames);
+  for (const auto& [key, name] :
+       {std::pair{"mapper", &config.mapper}, std::pair{"bridge", &config.bridge}}) {
+    reader.read(key, *name);
+    if (name->empty()) {
+      reader.addError(std::string(key) + " = '' is not allowed: allowed the name of a nodelet");
+    }
+  }
   auto& p = config.core;
   reader.readChoice("mode", p.mode, core::routing::parseRoutingMode,
                     core::routing::kRoutingModeChoices, &core::routing::toString);

@@ -9,7 +9,7 @@
 #include <rosbag/view.h>
 #include <sensor_msgs/PointCloud2.h>
 
-#include "ccir_mapping/core/preprocess/keyframe_stage.h"
+#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 #include "ccir_mapping/ros/conversions.h"
 
@@ -23,7 +23,7 @@ std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOpt
   core::preprocess::PreprocessorParams params;
   params.keyframe_distance_m = options.keyframe_distance_m;
   params.keyframe_rotation_deg = 180.0;  // by distance only
-  core::preprocess::KeyframeStage stage{params};
+  core::preprocess::PreprocessorStage stage{params};
   rosbag::Bag bag(bag_path);
   core::preprocess::OdometryBuffer odometry;
   core::preprocess::OdometryBuffer truth;
@@ -50,10 +50,10 @@ std::size_t forEachBagKeyframe(const std::string& bag_path, const BagKeyframeOpt
       k.true_pose = truth.at(k.stamp, kOdometryToleranceS);
       if (!k.true_pose) continue;
     }
-    core::preprocess::KeyframeStage::InputCloud scan;
+    core::preprocess::PreprocessorStage::InputCloud scan;
     conversions::toPcl(*cloud, &scan);
     auto result = stage.process(k.stamp, *pose, scan);
-    if (result.outcome != core::preprocess::KeyframeStage::Outcome::kKeyframe) continue;
+    if (result.outcome != core::preprocess::PreprocessorStage::Outcome::kKeyframe) continue;
     k.odom_pose = *pose;
     k.cloud = std::move(result.cloud);
     k.features = extractor.extract(*k.cloud, core::upInFrame(*pose), &k.stats);

@@ -28,7 +28,7 @@ struct BagKeyframeOptions {
 };
 
 /// Reads `bag_path` in bag order, takes a keyframe every `keyframe_distance_m` of odometry
-/// through the Preprocessor's stage (core::preprocess::KeyframeStage, default parameters
+/// through the Preprocessor's stage (core::preprocess::PreprocessorStage, default parameters
 /// otherwise), describes it, and hands it to `consume`. Returns the number of keyframes;
 /// malformed clouds and scans without odometry are skipped. Throws rosbag::BagException when the
 /// bag cannot be read.

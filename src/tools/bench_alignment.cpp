@@ -14,11 +14,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ccir_mapping/core/alignment/synthetic_candidates.h"
+#include "ccir_mapping/core/testing/synthetic_candidates.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
 namespace alignment = ccir_mapping::core::alignment;
+namespace testing = ccir_mapping::core::testing;
 namespace tools = ccir_mapping::tools;
 
 namespace {
@@ -108,11 +109,11 @@ std::vector<Point> run(const Options& o) {
     int found = 0;
     const auto start = std::chrono::steady_clock::now();
     for (int seed = 1; seed <= o.seeds; ++seed) {
-      alignment::SyntheticSpec spec;
+      testing::SyntheticSpec spec;
       spec.inliers = o.inliers;
       spec.outliers = outliers;
       spec.seed = static_cast<unsigned>(seed);
-      const auto s = alignment::makeSyntheticCandidates(spec);
+      const auto s = testing::makeSyntheticCandidates(spec);
       const auto result =
           alignment::estimateFrameTransform(s.candidates, alignment::AlignmentParams{});
       if (!result.found) {

@@ -18,13 +18,16 @@
 
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/transport/bridge.h"
-#include "ccir_mapping/core/transport/link_proxy.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
+#include "ccir_mapping/core/testing/link_proxy.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
 namespace tools = ccir_mapping::tools;
 using namespace ccir_mapping::core::transport;
+using ccir_mapping::core::testing::freeLoopbackPort;
+using ccir_mapping::core::testing::LinkProxy;
+using ccir_mapping::core::testing::LinkProxyParams;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -90,9 +93,9 @@ Result run(const Options& o, bool control_first) {
   BridgeParams pb = p;
   pb.listen_port = port_b;
   pb.peers = {{"robot_a", "127.0.0.1", port_a}};
-  Bridge a(
+  BridgeStage a(
       pa, "robot_a", [](auto&&...) {}, [](auto&&...) {});
-  Bridge b(
+  BridgeStage b(
       pb, "robot_b",
       [&](const std::string&, InboxMessage m) {
         std::lock_guard<std::mutex> lock(mutex);

@@ -21,10 +21,10 @@
 #include <Eigen/Geometry>
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/backend/trajectory_error.h"
+#include "ccir_mapping/core/testing/trajectory_error.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/simulation/mission.h"
-#include "ccir_mapping/core/team/team_graph.h"
+#include "ccir_mapping/core/backend/team_graph.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
@@ -34,9 +34,9 @@ using ccir_mapping::core::Matrix6;
 using ccir_mapping::core::Pose3;
 using ccir_mapping::core::Stamp;
 using ccir_mapping::core::backend::BackendParams;
-using ccir_mapping::core::backend::LoopClosureData;
-using ccir_mapping::core::team::BackendSnapshot;
-using ccir_mapping::core::team::TeamGraph;
+using ccir_mapping::core::pose_graph::LoopClosureData;
+using ccir_mapping::core::backend::BackendSnapshot;
+using ccir_mapping::core::backend::TeamGraph;
 namespace sim = ccir_mapping::core::simulation;
 
 namespace {
@@ -277,7 +277,7 @@ Outcome evaluate(const BackendSnapshot& s, std::size_t r,
     }
   }
   out.keyframes = estimate.size();
-  out.ate_m = ccir_mapping::core::backend::absoluteTrajectoryError(estimate, truth);
+  out.ate_m = ccir_mapping::core::testing::absoluteTrajectoryError(estimate, truth);
   out.inter_loops = s.loops.inter;
   out.inter_loops_rejected = s.loops.inter_rejected;
   return out;

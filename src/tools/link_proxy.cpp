@@ -15,13 +15,13 @@
 
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/transport/link_proxy.h"
+#include "ccir_mapping/core/testing/link_proxy.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
 namespace tools = ccir_mapping::tools;
-using ccir_mapping::core::transport::LinkProxy;
-using ccir_mapping::core::transport::LinkProxyParams;
+using ccir_mapping::core::testing::LinkProxy;
+using ccir_mapping::core::testing::LinkProxyParams;
 
 namespace {
 

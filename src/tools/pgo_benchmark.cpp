@@ -10,15 +10,16 @@
 
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/backend/g2o_io.h"
-#include "ccir_mapping/core/backend/outlier_injector.h"
-#include "ccir_mapping/core/backend/pose_graph_optimizer.h"
-#include "ccir_mapping/core/backend/trajectory_error.h"
+#include "ccir_mapping/core/pose_graph/g2o_io.h"
+#include "ccir_mapping/core/testing/outlier_injector.h"
+#include "ccir_mapping/core/pose_graph/pose_graph_optimizer.h"
+#include "ccir_mapping/core/testing/trajectory_error.h"
 #include "command_line.h"
 #include "mrpt_reference.h"
 
 namespace po = boost::program_options;
-namespace backend = ccir_mapping::core::backend;
+namespace pose_graph = ccir_mapping::core::pose_graph;
+namespace testing = ccir_mapping::core::testing;
 namespace tools = ccir_mapping::tools;
 
 namespace {
@@ -37,9 +38,9 @@ struct Options {
   std::string gt;
   /// "mrpt" to compare with MRPT's optimiser, or "".
   std::string reference_solver;
-  backend::OutlierParams outliers;
+  testing::OutlierParams outliers;
   int seed = 1;
-  backend::OptimizerParams params;
+  pose_graph::OptimizerParams params;
 };
 
 /// The options, or the exit code to end with (help, a usage error).
@@ -90,16 +91,16 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
           tools::parseCommandLine("pgo_benchmark", options, argc, argv, &arguments)) {
     return exit_code;
   }
-  const auto kernel = backend::parseRobustKernel(robust);
-  const auto mode = backend::parseOutlierMode(outlier_mode);
+  const auto kernel = pose_graph::parseRobustKernel(robust);
+  const auto mode = testing::parseOutlierMode(outlier_mode);
   if (!o->reference_solver.empty() && o->reference_solver != "mrpt") {
     return tools::usageError("pgo_benchmark", "--reference allows only mrpt");
   }
   if (o->g2o.empty() || !kernel || !mode || o->outliers.count < 0 ||
       (switch_function != "linear" && switch_function != "sigmoid")) {
     return tools::usageError(
-        "pgo_benchmark", "need --g2o FILE, --robust " + std::string(backend::kRobustKernelChoices) +
-                             ", --outlier-mode " + std::string(backend::kOutlierModeChoices) +
+        "pgo_benchmark", "need --g2o FILE, --robust " + std::string(pose_graph::kRobustKernelChoices) +
+                             ", --outlier-mode " + std::string(testing::kOutlierModeChoices) +
                              ", --switch linear | sigmoid, --outliers >= 0 (see --help)");
   }
   o->outliers.mode = *mode;
@@ -107,17 +108,17 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
   o->outliers.seed = static_cast<std::uint64_t>(o->seed);
   o->params.kernel = *kernel;
   o->params.uncertainty_aware_start = arguments.count("no-chain-start") == 0;
-  o->params.switch_function = switch_function == "linear" ? backend::SwitchFunction::kLinear
-                                                          : backend::SwitchFunction::kSigmoid;
+  o->params.switch_function = switch_function == "linear" ? pose_graph::SwitchFunction::kLinear
+                                                          : pose_graph::SwitchFunction::kSigmoid;
   return std::nullopt;
 }
 
 struct Results {
-  backend::PoseGraph clean;  // as read
-  backend::PoseGraph graph;  // with the outliers, optimised
-  backend::OptimizationResult result;
-  backend::PoseGraph optimum;  // outlier-free, by plain least squares
-  backend::OptimizationResult optimum_result;
+  pose_graph::PoseGraph clean;  // as read
+  pose_graph::PoseGraph graph;  // with the outliers, optimised
+  pose_graph::OptimizationResult result;
+  pose_graph::PoseGraph optimum;  // outlier-free, by plain least squares
+  pose_graph::OptimizationResult optimum_result;
   double ate = 0, outlier_free_ate = 0;
   /// MRPT's time, iterations and the cost of its result under this package's cost function,
   /// as JSON ("null" without --reference).
@@ -129,37 +130,37 @@ struct Results {
 /// Throws std::runtime_error (a file that cannot be read, ground truth of another size).
 Results run(const Options& o) {
   Results r;
-  r.clean = backend::readG2o(o.g2o);
+  r.clean = pose_graph::readG2o(o.g2o);
   // The outlier-free optimum by plain least squares: the reference without ground truth, and
   // the error every robust run is compared with.
   r.optimum = r.clean;
-  backend::OptimizerParams plain = o.params;
-  plain.kernel = backend::RobustKernel::kNone;
-  r.optimum_result = backend::PoseGraphOptimizer(plain).optimize(r.optimum);
+  pose_graph::OptimizerParams plain = o.params;
+  plain.kernel = pose_graph::RobustKernel::kNone;
+  r.optimum_result = pose_graph::PoseGraphOptimizer(plain).optimize(r.optimum);
   std::vector<ccir_mapping::core::Pose3> reference = r.optimum.poses;
   if (!o.gt.empty()) {
-    reference = backend::readGroundTruth(o.gt, r.clean.dimension);
+    reference = pose_graph::readGroundTruth(o.gt, r.clean.dimension);
     if (reference.size() != r.clean.poses.size()) {
       throw std::runtime_error(o.gt + " has " + std::to_string(reference.size()) +
                                " poses, the graph " + std::to_string(r.clean.poses.size()));
     }
   }
-  r.outlier_free_ate = backend::absoluteTrajectoryError(r.optimum.poses, reference);
+  r.outlier_free_ate = testing::absoluteTrajectoryError(r.optimum.poses, reference);
   if (o.reference_solver == "mrpt") {
     const MrptReference mrpt = runMrptReference(o.g2o, r.clean.dimension, o.params.max_iterations);
-    backend::PoseGraph mrpt_graph = r.clean;
+    pose_graph::PoseGraph mrpt_graph = r.clean;
     if (mrpt.poses.size() == r.clean.poses.size()) mrpt_graph.poses = mrpt.poses;
     char buffer[256];
     std::snprintf(buffer, sizeof buffer,
                   "{\"solve_s\": %.3f, \"iterations\": %d, \"plain_cost\": %.10g}", mrpt.solve_s,
-                  mrpt.iterations, backend::PoseGraphOptimizer::plainCost(mrpt_graph));
+                  mrpt.iterations, pose_graph::PoseGraphOptimizer::plainCost(mrpt_graph));
     r.mrpt_json = buffer;
   }
 
   r.graph = r.clean;
-  backend::injectOutliers(r.graph, o.outliers.count > 0 ? o.outliers : backend::OutlierParams{0});
-  r.result = backend::PoseGraphOptimizer(o.params).optimize(r.graph);
-  r.ate = backend::absoluteTrajectoryError(r.graph.poses, reference);
+  testing::injectOutliers(r.graph, o.outliers.count > 0 ? o.outliers : testing::OutlierParams{0});
+  r.result = pose_graph::PoseGraphOptimizer(o.params).optimize(r.graph);
+  r.ate = testing::absoluteTrajectoryError(r.graph.poses, reference);
   for (std::size_t k = 0; k < r.graph.edges.size(); ++k) {
     const auto& e = r.graph.edges[k];
     if (!e.loop) continue;
@@ -199,14 +200,14 @@ void report(const Options& o, const Results& r) {
       "%.4f, "
       "\"recall\": %.4f}\n}\n",
       jsonString(o.g2o).c_str(), r.clean.dimension, r.clean.poses.size(), r.graph.edges.size(),
-      r.true_loops, r.injected, jsonString(backend::toString(o.outliers.mode)).c_str(), r.robots,
+      r.true_loops, r.injected, jsonString(testing::toString(o.outliers.mode)).c_str(), r.robots,
       r.inter_robot_true_loops, o.outliers.inter_robot ? "true" : "false", o.seed,
-      jsonString(backend::toString(o.params.kernel)).c_str(),
+      jsonString(pose_graph::toString(o.params.kernel)).c_str(),
       jsonString(o.gt.empty() ? "outlier-free optimum" : "ground truth").c_str(), r.ate,
       r.outlier_free_ate, r.outlier_free_ate > 0 ? r.ate / r.outlier_free_ate : 0.0,
-      r.result.initial_cost, r.result.final_cost, backend::PoseGraphOptimizer::plainCost(r.graph),
+      r.result.initial_cost, r.result.final_cost, pose_graph::PoseGraphOptimizer::plainCost(r.graph),
       r.result.iterations, r.result.solve_s, r.result.usable ? "true" : "false",
-      r.optimum_result.solve_s, backend::PoseGraphOptimizer::plainCost(r.optimum),
+      r.optimum_result.solve_s, pose_graph::PoseGraphOptimizer::plainCost(r.optimum),
       r.mrpt_json.c_str(), r.rejected, r.rejected_outliers, r.rejected_true,
       r.inter_robot_rejected_true, precision, recall);
 }

@@ -5,14 +5,14 @@
 #include <exception>
 #include <string>
 
-#include "ccir_mapping/core/backend/g2o_io.h"
+#include "ccir_mapping/core/pose_graph/g2o_io.h"
 #include "file_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = ccir_mapping::fuzz::scratchFile("graph.g2o");
   ccir_mapping::fuzz::write(path, data, size);
   try {
-    ccir_mapping::core::backend::readG2o(path);
+    ccir_mapping::core::pose_graph::readG2o(path);
   } catch (const std::exception&) {
   }
   return 0;

@@ -14,7 +14,7 @@
 #include "ccir_mapping/core/hgmm/mixture_codec.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
 #include "ccir_mapping/core/place_recognition/vocabulary.h"
-#include "ccir_mapping/core/transport/scan_codec.h"
+#include "ccir_mapping/core/routing/scan_codec.h"
 
 namespace fs = std::filesystem;
 namespace core = ccir_mapping::core;
@@ -86,10 +86,10 @@ int main(int argc, char** argv) {
     write(out / "cloud_conversion" / ("drawn_" + std::to_string(length)), bytes);
   }
   // Scans: 40 points on a wall, as points and as a two-Gaussian mixture.
-  std::vector<core::transport::ScanPoint> points;
+  std::vector<core::routing::ScanPoint> points;
   for (int i = 0; i < 40; ++i) points.push_back({float(i % 8), 3.0f, float(i / 8), 0, -1, 0, 9});
   write(out / "scan_decoding" / "cloud",
-        scanInput(*core::transport::encodeScan(points), false, 40));
+        scanInput(*core::routing::encodeScan(points), false, 40));
   core::hgmm::Gaussian a, b;
   a.weight = b.weight = 0.5;
   a.mean << 1, 3, 1;

@@ -209,26 +209,29 @@ TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
     EXPECT_EQ(cloud_back[i].intensity, cloud[i].intensity);
   }
 
-  SharedScan shared;
+  core::routing::WireScan wire;
   pcl::PointCloud<pcl::PointXYZ> xyz;
-  core::Pose3 pose_out;
-  ASSERT_FALSE(toSharedScan(keyframe, core::routing::BrokerParams{}, &shared, &xyz, &pose_out));
-  EXPECT_EQ(shared.encoding, SharedScan::ENCODING_CLOUD);
+  ASSERT_FALSE(toWireScan(keyframe, core::routing::BrokerParams{}, &wire, &xyz));
+  EXPECT_EQ(wire.robot, "robot_a");
+  EXPECT_EQ(wire.id, 42U);
+  EXPECT_EQ(wire.stamp, toStamp(header.stamp));
+  EXPECT_TRUE(wire.odom_pose.isApprox(odom_pose));
   ASSERT_EQ(xyz.size(), cloud.size());
   EXPECT_EQ(xyz[7].getVector3fMap(), cloud[7].getVector3fMap());
-  EXPECT_TRUE(pose_out.isApprox(odom_pose));
+  SharedScan shared = toSharedScanMsg(std::move(wire), header.frame_id, keyframe.odom_frame);
+  EXPECT_EQ(shared.encoding, SharedScan::ENCODING_CLOUD);
   EXPECT_EQ(shared.point_count, 200U);
   EXPECT_LT(shared.points.size(), keyframe.cloud.data.size() / 5);
 
   Keyframe back;
-  ASSERT_FALSE(toKeyframe(shared, 1000, &back));
+  ASSERT_FALSE(toKeyframe(shared, &back));
   EXPECT_EQ(back.header.stamp, keyframe.header.stamp);
   EXPECT_EQ(back.header.frame_id, keyframe.header.frame_id);
   EXPECT_EQ(back.cloud.header.frame_id, keyframe.header.frame_id);
   EXPECT_EQ(back.robot, "robot_a");
   EXPECT_EQ(back.id, 42U);
   EXPECT_EQ(back.odom_frame, "robot_a/odom");
-  EXPECT_EQ(back.odom_pose.position.y, 2.0);
+  EXPECT_DOUBLE_EQ(back.odom_pose.position.y, 2.0);
   EXPECT_EQ(back.travelled_m, 1.5F);
   EXPECT_EQ(back.rotated_rad, 0.25F);
   EXPECT_FALSE(back.drawn_from_mixture);
@@ -244,23 +247,25 @@ TEST(Conversions, KeyframeRoundTripsThroughItsMessageAndSharedScan) {
   }
 
   // A teammate's malformed scans are refused with a reason.
-  EXPECT_TRUE(toKeyframe(shared, 199, &back));  // more points than this robot accepts
+  auto too_many = shared;  // more points than this robot accepts
+  too_many.point_count = core::routing::kMaxTeammateScanPoints + 1;
+  EXPECT_TRUE(toKeyframe(too_many, &back));
   auto wrong_count = shared;
   wrong_count.point_count = 7;
-  EXPECT_TRUE(toKeyframe(wrong_count, 1000, &back));
+  EXPECT_TRUE(toKeyframe(wrong_count, &back));
   auto garbage = shared;
   garbage.points.resize(garbage.points.size() / 2);
-  EXPECT_TRUE(toKeyframe(garbage, 1000, &back));
+  EXPECT_TRUE(toKeyframe(garbage, &back));
   auto bad_pose = shared;
   bad_pose.odom_pose.orientation.w = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_TRUE(toKeyframe(bad_pose, 1000, &back));
+  EXPECT_TRUE(toKeyframe(bad_pose, &back));
   // A keyframe without normals or a valid pose has no wire form.
   auto velodyne = keyframe;
   velodyne.cloud = velodyneCloud(10);
-  EXPECT_TRUE(toSharedScan(velodyne, core::routing::BrokerParams{}, &shared));
+  EXPECT_TRUE(toWireScan(velodyne, core::routing::BrokerParams{}, &wire));
   auto lost = keyframe;
   lost.odom_pose.orientation.w = 0.0;
-  const auto error = toSharedScan(lost, core::routing::BrokerParams{}, &shared);
+  const auto error = toWireScan(lost, core::routing::BrokerParams{}, &wire);
   ASSERT_TRUE(error);
   EXPECT_EQ(*error, "odom_pose is not finite");
 }
@@ -287,14 +292,15 @@ TEST(Conversions, KeyframeAsAGaussianMixtureAndBack) {
   core::routing::BrokerParams gmm;
   gmm.scan_encoding = core::routing::ScanEncoding::kGmm;
   gmm.gmm_max_bytes = 2000;
-  SharedScan shared;
-  ASSERT_FALSE(toSharedScan(keyframe, gmm, &shared));
+  core::routing::WireScan wire;
+  ASSERT_FALSE(toWireScan(keyframe, gmm, &wire));
+  const SharedScan shared = toSharedScanMsg(std::move(wire), header.frame_id, keyframe.odom_frame);
   EXPECT_EQ(shared.encoding, SharedScan::ENCODING_GMM);
   EXPECT_EQ(shared.point_count, 2000U);
   EXPECT_LE(shared.points.size(), 2000U) << "within gmm_max_bytes";
 
   Keyframe back;
-  ASSERT_FALSE(toKeyframe(shared, 100000, &back));
+  ASSERT_FALSE(toKeyframe(shared, &back));
   EXPECT_EQ(back.id, 42U);
   EXPECT_TRUE(back.drawn_from_mixture);
   pcl::PointCloud<pcl::PointXYZINormal> sampled;
@@ -305,21 +311,23 @@ TEST(Conversions, KeyframeAsAGaussianMixtureAndBack) {
     EXPECT_NEAR(p.normal_z, 1.0, 0.01) << "the floor's normal, towards the sensor";
   }
   Keyframe again;
-  ASSERT_FALSE(toKeyframe(shared, 100000, &again));
+  ASSERT_FALSE(toKeyframe(shared, &again));
   EXPECT_EQ(again.cloud.data, back.cloud.data) << "sampled with the keyframe id as seed";
 
-  EXPECT_TRUE(toKeyframe(shared, 1999, &back)) << "more points than this robot accepts";
+  auto too_many = shared;
+  too_many.point_count = core::routing::kMaxTeammateScanPoints + 1;
+  EXPECT_TRUE(toKeyframe(too_many, &back)) << "more points than this robot accepts";
   auto unknown = shared;
   unknown.encoding = 7;
-  const auto error = toKeyframe(unknown, 100000, &back);
+  const auto error = toKeyframe(unknown, &back);
   ASSERT_TRUE(error);
   EXPECT_EQ(*error, "encoding 7 is unknown");
   auto truncated = shared;
   truncated.points.resize(truncated.points.size() - 3);
-  EXPECT_TRUE(toKeyframe(truncated, 100000, &back));
+  EXPECT_TRUE(toKeyframe(truncated, &back));
   auto as_cloud = shared;
   as_cloud.encoding = SharedScan::ENCODING_CLOUD;
-  EXPECT_TRUE(toKeyframe(as_cloud, 100000, &back)) << "a mixture is no point encoding";
+  EXPECT_TRUE(toKeyframe(as_cloud, &back)) << "a mixture is no point encoding";
 }
 
 TEST(Conversions, ScanPointsOfAKeyframeOrWhyNot) {
@@ -483,7 +491,7 @@ TEST(Conversions, CovariancesAreRowMajor) {
 }
 
 TEST(Conversions, LoopClosureRoundTrip) {
-  core::backend::LoopClosureData loop;
+  core::pose_graph::LoopClosureData loop;
   loop.robot_from = "robot_a";
   loop.keyframe_from = 12;
   loop.robot_to = "robot_b";
@@ -497,7 +505,7 @@ TEST(Conversions, LoopClosureRoundTrip) {
   loop.fitness_m2 = 0.04;
   loop.inliers = 31;
   loop.method = "fabmap";
-  core::backend::LoopClosureData back;
+  core::pose_graph::LoopClosureData back;
   ASSERT_TRUE(toLoopClosure(toLoopClosureMsg(loop), &back));
   EXPECT_EQ(back.match_score, 0.75);
   EXPECT_EQ(back.new_place_probability, 0.125);
@@ -527,7 +535,7 @@ TEST(Conversions, LoopClosureRoundTrip) {
 }
 
 TEST(Conversions, TeamTransformCarriesTheEstimate) {
-  core::team::TeamEstimate estimate;
+  core::backend::TeamEstimate estimate;
   estimate.peer = "robot_c";
   estimate.candidates = 14;
   estimate.alignment.found = true;
@@ -655,7 +663,7 @@ TEST(Conversions, LinkStatsReportALinkWithItsBudgetsAndTheDropsThatHappened) {
 }
 
 TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
-  core::information::MapStage::Stats stats;
+  core::information::MapperStage::Stats stats;
   stats.entropy_bits = 1234.5;
   stats.known_volume_m3 = 67.25;
   stats.keyframes = 9;
@@ -684,14 +692,14 @@ TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
 }
 
 TEST(Conversions, TfCarriesTheOdometryCorrectionAndTheTransformsFound) {
-  core::team::BackendSnapshot snapshot;
+  core::backend::BackendSnapshot snapshot;
   snapshot.poses = {somePose(0.0, 0.0), somePose(5.0, 0.3)};
   snapshot.latest_odom_pose = somePose(4.0, 0.1);
-  core::team::TeamEstimate found;
+  core::backend::TeamEstimate found;
   found.peer = "robot_b";
   found.alignment.found = true;
   found.alignment.transform = somePose(-3.0, 0.7);
-  core::team::TeamEstimate not_yet;
+  core::backend::TeamEstimate not_yet;
   not_yet.peer = "robot_c";
   snapshot.team = {found, not_yet};
   const auto transforms = toTfMsgs(snapshot, "robot_a/map", "robot_a/odom", ros::Time(9));
@@ -708,7 +716,7 @@ TEST(Conversions, TfCarriesTheOdometryCorrectionAndTheTransformsFound) {
 }
 
 TEST(Conversions, TeamKeyframePosesRoundTrip) {
-  core::team::PeerKeyframes keyframes;
+  core::backend::PeerKeyframes keyframes;
   keyframes.robot = "robot_b";
   keyframes.ids = {3, 8};
   keyframes.poses = {core::Pose3(Eigen::Translation3d(1, 2, 3)),
@@ -747,26 +755,37 @@ TEST(Conversions, UncertaintyFeaturesAndCorrespondences) {
   short_one.position_variance_m2.pop_back();
   EXPECT_FALSE(toVariances(short_one));
 
-  const KeyframeFeatures features =
-      toKeyframeFeaturesMsg(header, "robot_a", 17, "cafe01", {2, 5, 400}, 260);
+  const core::place_recognition::KeyframeWords words{
+      "robot_a", 17, toStamp(header.stamp), "cafe01", {2, 5, 400}, 260};
+  const KeyframeFeatures features = toKeyframeFeaturesMsg(header, words);
   EXPECT_EQ(features.header.stamp, ros::Time(3));
   EXPECT_EQ(features.robot, "robot_a");
   EXPECT_EQ(features.keyframe_id, 17U);
   EXPECT_EQ(features.vocabulary_hash, "cafe01");
   EXPECT_EQ(features.words, (std::vector<std::uint32_t>{2, 5, 400}));
   EXPECT_EQ(features.descriptor_count, 260U);
+  const auto words_back = toKeyframeWords(features);
+  EXPECT_EQ(words_back.robot, words.robot);
+  EXPECT_EQ(words_back.id, words.id);
+  EXPECT_EQ(words_back.stamp, words.stamp);
+  EXPECT_EQ(words_back.vocabulary_hash, words.vocabulary_hash);
+  EXPECT_EQ(words_back.words, words.words);
+  EXPECT_EQ(words_back.descriptor_count, words.descriptor_count);
 
-  const std::vector<std::pair<core::KeyframeId, int>> counts = {{12, 30}, {3, 7}};
-  const Correspondences c = toCorrespondencesMsg("robot_a", "robot_b", 44, ros::Time(8), counts);
+  const core::place_recognition::KeyframeCorrespondences counts{"robot_b", 44, {{12, 30}, {3, 7}}};
+  const Correspondences c = toCorrespondencesMsg("robot_a", counts, ros::Time(8));
   EXPECT_EQ(c.robot, "robot_a");
   EXPECT_EQ(c.peer, "robot_b");
   EXPECT_EQ(c.peer_keyframe_id, 44U);
   EXPECT_EQ(c.header.stamp, ros::Time(8));
-  ASSERT_TRUE(toCorrespondenceCounts(c));
-  EXPECT_EQ(*toCorrespondenceCounts(c), counts);
+  const auto back = toKeyframeCorrespondences(c);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->peer, counts.peer);
+  EXPECT_EQ(back->peer_keyframe, counts.peer_keyframe);
+  EXPECT_EQ(back->counts, counts.counts);
   Correspondences broken = c;
   broken.counts.push_back(1);
-  EXPECT_FALSE(toCorrespondenceCounts(broken));
+  EXPECT_FALSE(toKeyframeCorrespondences(broken));
 }
 
 TEST(Conversions, PathRoundTripsAndSkipsBrokenPoses) {
@@ -792,10 +811,10 @@ TEST(Conversions, PathRoundTripsAndSkipsBrokenPoses) {
 }
 
 TEST(Conversions, LoopMarkersDrawEachKindAndDeleteEmptyOnes) {
-  core::team::LoopLine kept;
+  core::backend::LoopLine kept;
   kept.accepted = true;
   kept.to = Eigen::Vector3d(1, 2, 3);
-  core::team::LoopLine inter;
+  core::backend::LoopLine inter;
   inter.inter_robot = true;
   inter.accepted = true;
   const auto markers = toLoopMarkersMsg({kept, inter, kept}, "robot_a/map", ros::Time(3));

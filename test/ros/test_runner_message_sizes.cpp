@@ -17,11 +17,10 @@ TEST(RunnerMessageSizes, EveryOutboxMessageHasItsRosSerialisedSize) {
   std_msgs::Header sensor_header;
   sensor_header.frame_id = robot + "/velodyne";  // a keyframe's header, as the Preprocessor's
 
-  core::runner::WordsMessage words{robot, 7, 0, "0123456789abcdef", {1, 5, 9, 300}, 42};
+  const core::place_recognition::KeyframeWords words{
+      robot, 7, 0, "0123456789abcdef", {1, 5, 9, 300}, 42};
   EXPECT_EQ(serializedBytes(TeamMessage(words)),
-            serializationLength(conversions::toKeyframeFeaturesMsg(
-                sensor_header, robot, words.id, words.vocabulary_hash, words.words,
-                words.descriptor_count)));
+            serializationLength(conversions::toKeyframeFeaturesMsg(sensor_header, words)));
 
   core::routing::Offer offer{robot, "robot_c", 3, {}};
   for (int k = 0; k < 3; ++k) offer.scans.push_back({core::KeyframeId(k), {}, 4, 60000, 0.5});
@@ -35,23 +34,20 @@ TEST(RunnerMessageSizes, EveryOutboxMessageHasItsRosSerialisedSize) {
   EXPECT_EQ(serializedBytes(TeamMessage(receipt)),
             serializationLength(conversions::toReceiptMsg(receipt)));
 
-  core::backend::LoopClosureData loop;
+  core::pose_graph::LoopClosureData loop;
   loop.robot_from = robot;
   loop.robot_to = "robot_c";
   loop.method = "fabmap";
   EXPECT_EQ(serializedBytes(TeamMessage(loop)),
             serializationLength(conversions::toLoopClosureMsg(loop)));
 
-  auto scan = std::make_shared<core::runner::WireScan>();
+  auto scan = std::make_shared<core::routing::WireScan>();
   scan->robot = robot;
   scan->points.assign(1234, 0);
-  SharedScan shared;  // as conversions::toSharedScan fills it from a keyframe
-  shared.header = sensor_header;
-  shared.robot = robot;
-  shared.odom_frame = robot + "/odom";
-  shared.points = scan->points;
-  EXPECT_EQ(serializedBytes(TeamMessage(std::shared_ptr<const core::runner::WireScan>(scan))),
-            serializationLength(shared));
+  EXPECT_EQ(serializedBytes(TeamMessage(std::shared_ptr<const core::routing::WireScan>(scan))),
+            serializationLength(conversions::toSharedScanMsg(core::routing::WireScan(*scan),
+                                                             sensor_header.frame_id,
+                                                             robot + "/odom")));
 }
 
 }  // namespace

@@ -30,14 +30,16 @@
 #include "ccir_mapping/SharedScan.h"
 #include "ccir_mapping/TeamKeyframePoses.h"
 #include "ccir_mapping/TeamTransform.h"
+#include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/common/lidar_scan.h"
 #include "ccir_mapping/core/common/types.h"
-#include "ccir_mapping/core/information/map_stage.h"
+#include "ccir_mapping/core/information/mapper_stage.h"
+#include "ccir_mapping/core/place_recognition/matcher_stage.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
-#include "ccir_mapping/core/team/team_graph.h"
-#include "ccir_mapping/core/transport/bridge.h"
+#include "ccir_mapping/core/routing/scan_encoding.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
 
 namespace ccir_mapping::conversions {
 
@@ -67,19 +69,19 @@ nav_msgs::Path toPathMsg(const std::vector<core::Stamp>& stamps,
 
 /// A loop closure's keyframes, relative pose, covariance, (when it is a valid pose: an unset
 /// one has a zero quaternion) odom_pose_from and odom_pose_to, and match figures; false when the
-/// relative pose is not finite (core::backend::loopClosureProblem checks the rest).
-bool toLoopClosure(const LoopClosure& msg, core::backend::LoopClosureData* out);
+/// relative pose is not finite (core::pose_graph::loopClosureProblem checks the rest).
+bool toLoopClosure(const LoopClosure& msg, core::pose_graph::LoopClosureData* out);
 /// The same fields of a LoopClosure message (its header is the finder's to set).
-LoopClosure toLoopClosureMsg(const core::backend::LoopClosureData& loop);
+LoopClosure toLoopClosureMsg(const core::pose_graph::LoopClosureData& loop);
 /// A team transform estimate of `estimate.peer`'s map frame in `map_frame`.
-TeamTransform toTeamTransformMsg(const core::team::TeamEstimate& estimate,
+TeamTransform toTeamTransformMsg(const core::backend::TeamEstimate& estimate,
                                  const std::string& map_frame, const ros::Time& stamp);
 /// The teammate's map frame in this robot's, or nullopt unless the message is valid and its
 /// transform finite.
 std::optional<core::Pose3> toTeamFrame(const TeamTransform& msg);
 
 /// A teammate's keyframes as the team graph placed them, in `map_frame`.
-TeamKeyframePoses toTeamKeyframePosesMsg(const core::team::PeerKeyframes& keyframes,
+TeamKeyframePoses toTeamKeyframePosesMsg(const core::backend::PeerKeyframes& keyframes,
                                          const std::string& map_frame, const ros::Time& stamp);
 /// (keyframe, pose) pairs, or nullopt when ids and poses differ in length or a pose is not
 /// finite (with a unit quaternion).
@@ -95,24 +97,22 @@ KeyframeUncertainty toKeyframeUncertaintyMsg(const std::string& robot,
 std::optional<std::vector<std::pair<core::KeyframeId, double>>> toVariances(
     const KeyframeUncertainty& msg);
 
-/// A keyframe's word set under the vocabulary with `vocabulary_hash`, quantised from
-/// `descriptor_count` descriptors.
-KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header, const std::string& robot,
-                                       core::KeyframeId id, const std::string& vocabulary_hash,
-                                       const std::vector<std::uint32_t>& words,
-                                       std::size_t descriptor_count);
+/// A keyframe's word set, in the header of the keyframe it was made of, and back.
+KeyframeFeatures toKeyframeFeaturesMsg(const std_msgs::Header& header,
+                                       const core::place_recognition::KeyframeWords& words);
+core::place_recognition::KeyframeWords toKeyframeWords(const KeyframeFeatures& msg);
 
-/// c_k of `robot`'s keyframes with keyframe `peer_keyframe` of teammate `peer`, most first.
-Correspondences toCorrespondencesMsg(const std::string& robot, const std::string& peer,
-                                     core::KeyframeId peer_keyframe, const ros::Time& stamp,
-                                     const std::vector<std::pair<core::KeyframeId, int>>& counts);
-/// (keyframe, c_k) pairs, or nullopt when ids and counts differ in length.
-std::optional<std::vector<std::pair<core::KeyframeId, int>>> toCorrespondenceCounts(
+/// c_k of `robot`'s keyframes with one teammate keyframe, and back (nullopt when ids and counts
+/// differ in length).
+Correspondences toCorrespondencesMsg(const std::string& robot,
+                                     const core::place_recognition::KeyframeCorrespondences& c,
+                                     const ros::Time& stamp);
+std::optional<core::place_recognition::KeyframeCorrespondences> toKeyframeCorrespondences(
     const Correspondences& msg);
 
 /// What a Backend snapshot puts on tf at `stamp`: odom_frame in map_frame, and each teammate's
 /// map frame ("<peer>/map") whose transform is found.
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendSnapshot& snapshot,
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::backend::BackendSnapshot& snapshot,
                                                       const std::string& map_frame,
                                                       const std::string& odom_frame,
                                                       const ros::Time& stamp);
@@ -120,7 +120,7 @@ std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::team::BackendS
 /// Loop closures as lines between their keyframes, one LINE_LIST each: kept intra-robot ones
 /// green ("loops kept"), rejected red ("loops rejected"), inter-robot blue ("inter-robot
 /// loops"); an empty list is a DELETE (rviz would keep drawing the last lines).
-visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::team::LoopLine>& lines,
+visualization_msgs::MarkerArray toLoopMarkersMsg(const std::vector<core::backend::LoopLine>& lines,
                                                  const std::string& map_frame,
                                                  const ros::Time& stamp);
 
@@ -168,20 +168,20 @@ std::optional<std::string> toScanPoints(const Keyframe& keyframe,
                                         pcl::PointCloud<pcl::PointXYZ>* points,
                                         core::Pose3* odom_pose);
 
-/// A keyframe in its wire form (SharedScan.msg, core/routing/scan_encoding.h: `broker`'s
-/// scan_encoding), and when asked its points (x y z) and odometry pose. Returns an error naming
-/// what is wrong (the cloud is not a keyframe cloud, a value is not finite).
-std::optional<std::string> toSharedScan(const Keyframe& keyframe,
-                                        const core::routing::BrokerParams& broker, SharedScan* out,
-                                        pcl::PointCloud<pcl::PointXYZ>* xyz = nullptr,
-                                        core::Pose3* odom_pose = nullptr);
-/// Most points a teammate's scan may decode to (a VLP-16 sweep has ~29 k before filtering).
-constexpr std::size_t kMaxTeammateScanPoints = 1 << 20;
+/// An own keyframe in its wire form (core/routing/scan_encoding.h: `broker`'s scan_encoding),
+/// and when asked its points (x y z). Returns an error naming what is wrong (the cloud is not a
+/// keyframe cloud, a value is not finite).
+std::optional<std::string> toWireScan(const Keyframe& keyframe,
+                                      const core::routing::BrokerParams& broker,
+                                      core::routing::WireScan* out,
+                                      pcl::PointCloud<pcl::PointXYZ>* xyz = nullptr);
+/// That wire form as the message the Broker sends (the points moved, not copied).
+SharedScan toSharedScanMsg(core::routing::WireScan&& scan, const std::string& sensor_frame,
+                           const std::string& odom_frame);
 /// A teammate's scan back as a keyframe (cloud x y z intensity normals, FLOAT32, as the
-/// Preprocessor makes it; a mixture sampled with the keyframe id as seed). `max_points` bounds
-/// what a peer can make this robot allocate.
-std::optional<std::string> toKeyframe(const SharedScan& scan, std::size_t max_points,
-                                      Keyframe* out);
+/// Preprocessor makes it; core::routing::decodeWireScan bounds what a peer can make this robot
+/// allocate).
+std::optional<std::string> toKeyframe(const SharedScan& scan, Keyframe* out);
 
 /// CCIR's protocol messages. A teammate's offer with a non-finite or non-unit pose is refused
 /// (error; its provider and requester are set all the same), the rest cannot be malformed in
@@ -212,7 +212,7 @@ LinkStats toLinkStatsMsg(const core::transport::LinkReport& report, const std::s
                          const core::transport::BridgeParams& params, const ros::Time& now,
                          double send_rate_bytes_per_s);
 /// A robot's map statistics, with the map's resolution and entropy box from its parameters.
-MapStats toMapStatsMsg(const core::information::MapStage::Stats& stats,
+MapStats toMapStatsMsg(const core::information::MapperStage::Stats& stats,
                        const core::information::MapperParams& params, const std::string& robot,
                        const std_msgs::Header& header);
 

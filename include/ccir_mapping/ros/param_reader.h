@@ -5,6 +5,7 @@
 #include <set>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -41,6 +42,10 @@ class ParamReader {
   std::vector<std::string> unknownKeys() const;
   /// "key=value, ..." of every parameter read, for one start-up log line.
   std::string summary() const;
+  /// Every parameter read with its value as summary() shows it, in the order read.
+  const std::vector<std::pair<std::string, std::string>>& effective() const { return effective_; }
+  /// Every key asked for, read or raw.
+  const std::set<std::string>& knownKeys() const { return known_; }
   const std::string& ns() const { return ns_; }
 
  private:
@@ -52,7 +57,7 @@ class ParamReader {
   std::string ns_;
   std::set<std::string> known_;
   std::vector<std::string> errors_;
-  std::vector<std::string> effective_;
+  std::vector<std::pair<std::string, std::string>> effective_;
 };
 
 template <class Enum, class Parse>

@@ -78,6 +78,11 @@ struct MapperSettings {
 
 struct BrokerSettings {
   RobotFrames frames;
+  /// The nodelets of this manager the Broker depends on, by name: the Mapper whose map ranks
+  /// requests (mode ccir) and whose parameters size footprints, and the Bridge whose peers it
+  /// routes to (robot.launch names them).
+  std::string mapper = "mapper";
+  std::string bridge = "bridge";
   core::routing::BrokerParams core;
 };
 

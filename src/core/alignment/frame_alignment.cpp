@@ -14,13 +14,13 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "ccir_mapping/core/backend/pose_graph_residuals.h"
+#include "ccir_mapping/core/pose_graph/pose_graph_residuals.h"
 #include "ccir_mapping/core/common/param_check.h"
 
 namespace ccir_mapping::core::alignment {
 namespace {
 
-using backend::Edge3D;
+using pose_graph::Edge3D;
 
 /// Candidate k's error for a transform T (given as translation t and rotation q), weighted by
 /// `edge.sqrt_information`: the pose-graph residual between x^a_i and T x^b_j.

@@ -1,37 +1,8 @@
 #include "ccir_mapping/core/backend/backend_params.h"
 
-#include <array>
-#include <utility>
-
 #include "ccir_mapping/core/common/param_check.h"
 
 namespace ccir_mapping::core::backend {
-namespace {
-
-constexpr std::array<std::pair<RobustKernel, const char*>, 5> kNames{{
-    {RobustKernel::kSwitchable, "switchable"},
-    {RobustKernel::kNone, "none"},
-    {RobustKernel::kCauchy, "cauchy"},
-    {RobustKernel::kHuber, "huber"},
-    {RobustKernel::kDcs, "dcs"},
-}};
-
-}  // namespace
-
-std::optional<RobustKernel> parseRobustKernel(std::string_view text) {
-  for (const auto& [kernel, name] : kNames) {
-    if (text == name) return kernel;
-  }
-  return std::nullopt;
-}
-
-const char* toString(RobustKernel kernel) {
-  for (const auto& [k, name] : kNames) {
-    if (k == kernel) return name;
-  }
-  return "?";
-}
-
 std::vector<std::string> BackendParams::validate() const {
   ParamCheck check;
   check.inRange("switch_prior_sigma", switch_prior_sigma, 0.0, 100.0);

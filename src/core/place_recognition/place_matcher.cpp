@@ -81,12 +81,12 @@ PlaceMatcher::~PlaceMatcher() = default;
 std::size_t PlaceMatcher::places() const { return own_->places.size(); }
 std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
 
-backend::LoopClosureData PlaceMatcher::loopClosure(
+pose_graph::LoopClosureData PlaceMatcher::loopClosure(
     const std::string& self, const MatchCandidate& match, const std::string& query_robot,
     KeyframeId query, const std::optional<Pose3>& query_odom_pose) const {
   // An own query meeting a teammate's kept scan is "from"; otherwise the place is.
   const bool own_query_meets_teammate = query_robot == self && !match.robot.empty();
-  backend::LoopClosureData loop;
+  pose_graph::LoopClosureData loop;
   loop.robot_from = self;
   loop.keyframe_from = own_query_meets_teammate ? query : match.keyframe;
   loop.robot_to = match.robot.empty() ? query_robot : match.robot;

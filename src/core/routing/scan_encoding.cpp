@@ -3,7 +3,7 @@
 #include <stdexcept>
 
 #include "ccir_mapping/core/hgmm/scan_mixture.h"
-#include "ccir_mapping/core/transport/scan_codec.h"
+#include "ccir_mapping/core/routing/scan_codec.h"
 
 namespace ccir_mapping::core::routing {
 
@@ -11,7 +11,7 @@ std::optional<std::vector<std::uint8_t>> encodeKeyframeScan(const KeyframeCloud&
                                                             const BrokerParams& params,
                                                             std::string* error) {
   if (params.scan_encoding == ScanEncoding::kCloud) {
-    return transport::encodeScan(transport::scanPointsOf(cloud), error);
+    return routing::encodeScan(routing::scanPointsOf(cloud), error);
   }
   hgmm::Points points(3, static_cast<Eigen::Index>(cloud.size()));
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -39,13 +39,13 @@ std::optional<KeyframeCloud> decodeKeyframeScan(const std::vector<std::uint8_t>&
   }
   KeyframeCloud cloud;
   if (encoding == ScanEncoding::kCloud) {
-    const auto points = transport::decodeScan(bytes, max_points, error);
+    const auto points = routing::decodeScan(bytes, max_points, error);
     if (!points) return std::nullopt;
     if (points->size() != point_count) {
       *error = "point_count does not match the points";
       return std::nullopt;
     }
-    transport::cloudOf(*points, &cloud);
+    routing::cloudOf(*points, &cloud);
     return cloud;
   }
   try {
@@ -62,6 +62,22 @@ std::optional<KeyframeCloud> decodeKeyframeScan(const std::vector<std::uint8_t>&
     *error = e.what();
     return std::nullopt;
   }
+}
+
+bool encodeWireScan(const KeyframeCloud& cloud, const BrokerParams& params, WireScan* scan,
+                    std::string* error) {
+  auto encoded = encodeKeyframeScan(cloud, params, error);
+  if (!encoded) return false;
+  scan->encoding = params.scan_encoding;
+  scan->point_count = static_cast<std::uint32_t>(cloud.size());
+  scan->points = std::move(*encoded);
+  return true;
+}
+
+std::optional<KeyframeCloud> decodeWireScan(const std::vector<std::uint8_t>& points,
+                                            ScanEncoding encoding, std::size_t point_count,
+                                            KeyframeId id, std::string* error) {
+  return decodeKeyframeScan(points, encoding, point_count, kMaxTeammateScanPoints, id, error);
 }
 
 }  // namespace ccir_mapping::core::routing

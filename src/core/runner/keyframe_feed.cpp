@@ -1,7 +1,7 @@
 #include "ccir_mapping/core/runner/keyframe_feed.h"
 
 #include "ccir_mapping/core/common/cpu_time.h"
-#include "ccir_mapping/core/preprocess/keyframe_stage.h"
+#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/core/preprocess/lidar_scan_cloud.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
 
@@ -38,7 +38,7 @@ class KeyframeFeed::Sink final : public simulation::RecordingSink {
       const Pose3 sensor = *odom * mount_;
       auto result = stage_.process(scan.stamp, sensor, preprocess::toCloud(scan));
       if (result.dropped()) ++dropped_;
-      if (result.outcome == preprocess::KeyframeStage::Outcome::kKeyframe) {
+      if (result.outcome == preprocess::PreprocessorStage::Outcome::kKeyframe) {
         keyframe = SimKeyframe{scan.stamp,   published_s, result.decision,
                                result.cloud, sensor,      *truth * mount_};
       }
@@ -55,7 +55,7 @@ class KeyframeFeed::Sink final : public simulation::RecordingSink {
 
  private:
   KeyframeFeed& feed_;
-  preprocess::KeyframeStage stage_;
+  preprocess::PreprocessorStage stage_;
   preprocess::OdometryBuffer odometry_, truth_;
   const Pose3 mount_;
   const double tolerance_s_;
@@ -65,7 +65,7 @@ class KeyframeFeed::Sink final : public simulation::RecordingSink {
 KeyframeFeed::KeyframeFeed(const simulation::Mission& mission, int index,
                            const preprocess::PreprocessorParams& params, std::size_t capacity)
     : capacity_(std::max<std::size_t>(1, capacity)) {
-  preprocess::KeyframeStage check(params);  // throws for invalid parameters, on this thread
+  preprocess::PreprocessorStage check(params);  // throws for invalid parameters, on this thread
   thread_ = std::thread([this, &mission, index, params] { record(mission, index, params); });
 }
 

@@ -12,7 +12,7 @@ std::size_t text(const std::string& s) { return kLength + s.size(); }
 std::size_t header(const std::string& frame_id) { return 4 + 8 + text(frame_id); }
 
 struct Size {
-  std::size_t operator()(const WordsMessage& m) const {
+  std::size_t operator()(const place_recognition::KeyframeWords& m) const {
     return header(m.robot + "/velodyne") + text(m.robot) + 8 + text(m.vocabulary_hash) + kLength +
            4 * m.words.size() + 4;
   }
@@ -27,16 +27,18 @@ struct Size {
   std::size_t operator()(const routing::Receipt& m) const {
     return header({}) + text(m.receiver) + text(m.provider) + kLength + 8 * m.ids.size();
   }
-  std::size_t operator()(const backend::LoopClosureData& m) const {
+  std::size_t operator()(const pose_graph::LoopClosureData& m) const {
     // match_score, new_place_probability, fitness_m2, inliers.
     return header({}) + text(m.robot_from) + 8 + text(m.robot_to) + 8 + 3 * kPose + 36 * 8 + 8 + 8 +
            8 + 4 + text(m.method);
   }
-  std::size_t operator()(const WireScan& m) const {
+  std::size_t operator()(const routing::WireScan& m) const {
     return header(m.robot + "/velodyne") + text(m.robot) + 8 + text(m.robot + "/odom") + kPose + 4 +
            4 + 1 + 4 + kLength + m.points.size();
   }
-  std::size_t operator()(const std::shared_ptr<const WireScan>& m) const { return (*this)(*m); }
+  std::size_t operator()(const std::shared_ptr<const routing::WireScan>& m) const {
+    return (*this)(*m);
+  }
 };
 
 }  // namespace
@@ -48,6 +50,6 @@ const char* topicName(int topic) {
 }
 
 std::size_t serializedBytes(const TeamMessage& message) { return std::visit(Size{}, message); }
-std::size_t serializedBytes(const WireScan& scan) { return Size{}(scan); }
+std::size_t serializedBytes(const routing::WireScan& scan) { return Size{}(scan); }
 
 }  // namespace ccir_mapping::core::runner

@@ -146,7 +146,7 @@ TeamResult TeamRunner::run(const Progress& progress) {
   const auto link = [&](int i, int j) -> TeamLink& {
     auto& l = links[i][j];
     if (!l) {
-      transport::LinkEmulatorParams radio = params_.radio;
+      testing::LinkEmulatorParams radio = params_.radio;
       radio.seed = params_.radio.seed * 1000003ULL + static_cast<std::uint64_t>(i * n + j);
       l = std::make_unique<TeamLink>(params_.bridge, radio, totals[i], start_s);
     }

@@ -4,7 +4,7 @@
 #include <array>
 #include <stdexcept>
 
-#include "listen.h"
+#include "ccir_mapping/core/transport/listen.h"
 
 namespace ccir_mapping::core::transport {
 

@@ -15,7 +15,7 @@
 
 #include <boost/asio.hpp>
 
-#include "ccir_mapping/core/transport/bridge.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "ccir_mapping/core/transport/token_bucket.h"
 
 namespace ccir_mapping::core::transport {
@@ -45,8 +45,8 @@ struct BridgeLink {
 };
 
 struct BridgeContext {
-  BridgeContext(const BridgeParams& params, std::string own, Bridge::InboxHandler on_message,
-                Bridge::LogHandler on_log, Bridge::Clock clock)
+  BridgeContext(const BridgeParams& params, std::string own, BridgeStage::InboxHandler on_message,
+                BridgeStage::LogHandler on_log, BridgeStage::Clock clock)
       : params(params),
         own(std::move(own)),
         on_message(std::move(on_message)),
@@ -79,9 +79,9 @@ struct BridgeContext {
 
   const BridgeParams params;
   const std::string own;
-  const Bridge::InboxHandler on_message;
-  const Bridge::LogHandler on_log;
-  const Bridge::Clock clock;  // empty: steady time since start
+  const BridgeStage::InboxHandler on_message;
+  const BridgeStage::LogHandler on_log;
+  const BridgeStage::Clock clock;  // empty: steady time since start
   const std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   mutable double last_s = 0;     // the bridge's time: never back
   mutable double clock_s = NAN;  // the clock's reading at the last look

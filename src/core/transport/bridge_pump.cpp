@@ -54,7 +54,7 @@ void BridgePump::read(BridgeLink& link) {
     return;
   }
   auto chunk = std::make_shared<std::vector<std::uint8_t>>(
-      std::min(Bridge::kReadChunkBytes, static_cast<std::size_t>(allowed)));
+      std::min(BridgeStage::kReadChunkBytes, static_cast<std::size_t>(allowed)));
   link.socket->async_read_some(
       asio::buffer(*chunk),
       [this, &link, chunk, generation](const boost::system::error_code& ec, std::size_t n) {

@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "ccir_mapping/core/transport/compression.h"
+#include "ccir_mapping/core/common/compression.h"
 
 namespace ccir_mapping::core::transport {
 namespace {

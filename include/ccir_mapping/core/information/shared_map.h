@@ -1,7 +1,8 @@
 // A robot's occupancy map shared between the nodelets of its manager: the Mapper writes it, the
-// Broker asks it information questions in-process (no copy over a topic) through
-// MapInformation. Readers take a shared lock for the duration of a query; the Mapper swaps in a
-// rebuilt map under the exclusive lock, so a query never sees a map half rebuilt.
+// Broker asks it information questions in-process (no copy over a topic). Readers take a shared
+// lock for the duration of a query; the Mapper swaps in a rebuilt map under the exclusive lock,
+// so a query never sees a map half rebuilt. The nodelets meet through a registry of the process
+// keyed by the Mapper nodelet's name, which the Broker's `mapper` parameter names.
 #pragma once
 
 #include <map>
@@ -33,15 +34,15 @@ class SharedMap {
     map_ = std::move(map);
   }
 
-  /// The maps of this process by robot name (one Mapper per robot and manager).
-  static void registerMap(const std::string& robot, const std::shared_ptr<SharedMap>& map) {
+  /// The maps of this process by the (resolved) name of the Mapper nodelet that writes it.
+  static void registerMap(const std::string& mapper, const std::shared_ptr<SharedMap>& map) {
     std::lock_guard lock(registryMutex());
-    registry()[robot] = map;
+    registry()[mapper] = map;
   }
-  /// Null while no Mapper of that robot runs in this process.
-  static std::shared_ptr<SharedMap> find(const std::string& robot) {
+  /// Null while no Mapper of that name runs in this process.
+  static std::shared_ptr<SharedMap> find(const std::string& mapper) {
     std::lock_guard lock(registryMutex());
-    const auto it = registry().find(robot);
+    const auto it = registry().find(mapper);
     return it == registry().end() ? nullptr : it->second.lock();
   }
 

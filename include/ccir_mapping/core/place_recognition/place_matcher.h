@@ -16,7 +16,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-#include "ccir_mapping/core/backend/loop_closure.h"
+#include "ccir_mapping/core/pose_graph/loop_closure.h"
 #include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
@@ -81,7 +81,7 @@ class PlaceMatcher {
   /// robot's keyframe (of an own loop the older one, the place), with its odometry pose when it
   /// is a place that had one; an inter-robot one carries the teammate's keyframe's odometry pose
   /// (odom_pose_to) when known, so that a third robot can place it.
-  backend::LoopClosureData loopClosure(const std::string& self, const MatchCandidate& match,
+  pose_graph::LoopClosureData loopClosure(const std::string& self, const MatchCandidate& match,
                                        const std::string& query_robot, KeyframeId query,
                                        const std::optional<Pose3>& query_odom_pose = {}) const;
 

@@ -2,15 +2,19 @@
 // input: each step takes plain data and returns an Output, everything the caller must send and
 // every refusal to report. Own keyframes get their footprint on an empty map of the Mapper's
 // parameters, and their wire form is kept for as long as CCIR keeps them, to be sent on request;
-// offered scans are scored against this robot's map (SharedMap).
+// offered scans are scored against this robot's map (the Mapper's SharedMap, an explicit input:
+// setMap). Control messages are counted at the size the caller's wire gives them.
 // `Scan` is whatever holds a wire form: the nodelet keeps its message pointers (sent again
 // without a copy), a ROS-free runner its encoded bytes.
 #pragma once
 
+#include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "ccir_mapping/core/common/notice.h"
@@ -35,11 +39,23 @@ class BrokerStage {
     std::vector<Notice> refused;
   };
 
+  using ControlMessage = std::variant<Offer, Request, Receipt>;
+  /// The bytes a control message takes on the wire (each is counted as the Broker's control
+  /// bytes to its teammate).
+  using ControlBytes = std::function<std::size_t(const ControlMessage&)>;
+
   /// Throws std::invalid_argument when either Params is invalid, a peer is this robot or a
   /// peer is named twice.
   BrokerStage(std::string self, std::vector<std::string> peers, const BrokerParams& params,
-              const information::MapperParams& map_params)
-      : self_(self), ccir_(std::move(self), std::move(peers), params), footprint_map_(map_params) {}
+              const information::MapperParams& map_params, ControlBytes control_bytes = {})
+      : ccir_(std::move(self), std::move(peers), params),
+        footprint_map_(map_params),
+        control_bytes_(std::move(control_bytes)) {}
+
+  /// The map requests are scored with (the Mapper's, shared in this process); until it is set,
+  /// every offered scan scores 0.
+  void setMap(std::shared_ptr<const information::SharedMap> map) { map_ = std::move(map); }
+  bool hasMap() const { return map_ != nullptr; }
 
   /// The state CCIR weighs with (links, transforms, poses, c_k, uncertainty) goes straight in.
   CcirBroker& ccir() { return ccir_; }
@@ -61,19 +77,27 @@ class BrokerStage {
     return out;
   }
 
-  /// One offer period: offers, requests for the offers received (scored with the CSQMI of this
-  /// robot's map, shared in this process by its Mapper; 0 while there is none), receipts.
+  /// c_k of own keyframes with keyframes of teammate `peer` (the Matcher's).
+  void onCorrespondences(const std::string& peer,
+                         const std::vector<std::pair<KeyframeId, int>>& counts) {
+    for (const auto& [id, c] : counts) ccir_.setCorrespondences(peer, id, c);
+  }
+
+  /// One offer period: offers, requests for the offers received (scored with the CSQMI of the
+  /// map, setMap), receipts; each counted as control bytes.
   Output runPeriod(double now_s) {
-    const auto map = information::SharedMap::find(self_);
     auto period = ccir_.runPeriod(
         [&](const Pose3& pose) {
-          return map ? map->read([&](const auto& m) { return m.simulatedCsqmi(pose); }) : 0.0;
+          return map_ ? map_->read([&](const auto& m) { return m.simulatedCsqmi(pose); }) : 0.0;
         },
         now_s);
     Output out;
     out.offers = std::move(period.offers);
     out.requests = std::move(period.requests);
     out.receipts = std::move(period.receipts);
+    for (const auto& o : out.offers) countControl(o.requester, o);
+    for (const auto& r : out.requests) countControl(r.provider, r);
+    for (const auto& r : out.receipts) countControl(r.provider, r);
     return out;
   }
 
@@ -124,15 +148,20 @@ class BrokerStage {
   std::size_t keptScans() const { return kept_.size(); }
 
  private:
+  void countControl(const std::string& peer, ControlMessage message) {
+    if (control_bytes_) ccir_.addControlBytes(peer, control_bytes_(message));
+  }
+
   static Output refused(std::string kind, std::string text) {
     Output out;
     out.refused.push_back({std::move(kind), std::move(text)});
     return out;
   }
 
-  std::string self_;
   CcirBroker ccir_;
   information::OccupancyMap footprint_map_;
+  ControlBytes control_bytes_;
+  std::shared_ptr<const information::SharedMap> map_;
   std::map<KeyframeId, Scan> kept_;
 };
 

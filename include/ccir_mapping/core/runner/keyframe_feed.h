@@ -1,5 +1,5 @@
 // One simulated robot's keyframes: its recording (core/simulation) goes through the
-// Preprocessor's stage (preprocess::KeyframeStage, placed by the recorded odometry as the
+// Preprocessor's stage (preprocess::PreprocessorStage, placed by the recorded odometry as the
 // Preprocessor places a scan) on a thread of its own, which stays at most `capacity` keyframes
 // ahead of the reader. Only keyframes are kept, so a long mission's scans never pile up.
 #pragma once

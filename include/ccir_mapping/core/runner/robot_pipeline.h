@@ -1,7 +1,8 @@
-// One robot of a team run: the stages its nodelets wrap (PlaceMatcher, TeamGraphWorker on the
-// caller's thread, MapStage, BrokerStage), chained as the nodelets' topics chain them, with the
-// messages to teammates collected in an outbox. Each call runs to the end before it returns, so
-// a run depends only on the order of the calls (core/runner/team_runner.h makes that order).
+// One robot of a team run: the stages its nodelets wrap (MatcherStage, BackendStage on the
+// caller's thread, MapperStage, BrokerStage), chained as the topics of launch/robot.launch chain
+// them, with the messages to teammates collected in an outbox. Every decision is the stages';
+// this only routes what each returns. Each call runs to the end before it returns, so a run
+// depends only on the order of the calls (core/runner/team_runner.h makes that order).
 #pragma once
 
 #include <map>
@@ -10,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "ccir_mapping/core/information/map_stage.h"
-#include "ccir_mapping/core/place_recognition/place_matcher.h"
+#include "ccir_mapping/core/backend/backend_stage.h"
+#include "ccir_mapping/core/information/mapper_stage.h"
+#include "ccir_mapping/core/place_recognition/matcher_stage.h"
 #include "ccir_mapping/core/routing/broker_stage.h"
 #include "ccir_mapping/core/runner/keyframe_feed.h"
 #include "ccir_mapping/core/runner/runner_params.h"
 #include "ccir_mapping/core/runner/team_message.h"
-#include "ccir_mapping/core/team/team_graph_worker.h"
 
 namespace ccir_mapping::core::runner {
 
@@ -52,8 +53,8 @@ class RobotPipeline {
   std::vector<Outgoing> takeOutbox();
 
   /// The newest optimisation (empty before the first).
-  const team::BackendSnapshot& snapshot() const { return snapshot_; }
-  information::MapStage::Stats mapStats() const { return map_.stats(); }
+  const backend::BackendSnapshot& snapshot() const { return snapshot_; }
+  information::MapperStage::Stats mapStats() const { return map_.stats(); }
   routing::BrokerReport brokerReport() const { return broker_.ccir().report(); }
   /// Loop closures this robot verified (own, with teammates), and refusals by kind.
   int ownLoops() const { return own_loops_; }
@@ -66,7 +67,7 @@ class RobotPipeline {
   double backgroundCpu() const;
 
  private:
-  using Broker = routing::BrokerStage<std::shared_ptr<const WireScan>>;
+  using Broker = routing::BrokerStage<std::shared_ptr<const routing::WireScan>>;
   struct Timer {
     double period_s;
     double next_s;
@@ -74,14 +75,14 @@ class RobotPipeline {
   };
 
   void send(double now_s, std::string peer, TeamMessage message);
-  void emit(double now_s, const Broker::Output& out);
-  /// Hands the best accepted candidate, if any, to the Backend as a loop closure (and to the
-  /// teammates when the Backend says so).
-  void closeLoop(double now_s, const std::vector<place_recognition::MatchCandidate>& candidates,
-                 const std::string& query_robot, KeyframeId query,
-                 const std::optional<Pose3>& query_odom_pose = {});
-  void onOptimized(const team::BackendSnapshot& snapshot, const team::TeamGraph& graph);
-  void onScan(double now_s, const WireScan& scan);
+  /// What the Matcher's step returned, as its topics carry it: word sets to the teammates, c_k
+  /// to the Broker, loop closures to the Backend (and on to the teammates when it says so).
+  void route(double now_s, const place_recognition::MatcherStage::Output& out);
+  /// What the Broker's step returned, to the teammates.
+  void route(double now_s, const Broker::Output& out);
+  /// An optimisation, to the Broker and the Mapper.
+  void route(const backend::BackendStage::Output& out);
+  void onScan(double now_s, const routing::WireScan& scan);
   void refuse(const std::string& kind) { ++refusals_[kind]; }
   /// Runs `work`, adding its thread's CPU seconds to `stage`.
   template <class F>
@@ -91,12 +92,12 @@ class RobotPipeline {
   const std::string name_;
   mutable std::mutex cpu_mutex_;  // the Mapper's rebuild thread adds too: before map_
   std::map<std::string, double> stage_cpu_;
-  place_recognition::PlaceMatcher matcher_;
-  information::MapStage map_;
+  place_recognition::MatcherStage matcher_;
+  information::MapperStage map_;
   Broker broker_;
-  std::unique_ptr<team::TeamGraphWorker> backend_;  // last: its hooks use the stages above
+  std::unique_ptr<backend::BackendStage> backend_;  // last: its hooks use the stages above
   Timer offers_, optimisation_, map_update_;
-  team::BackendSnapshot snapshot_;
+  backend::BackendSnapshot snapshot_;
   std::vector<Outgoing> outbox_;
   int own_loops_ = 0, inter_loops_ = 0;
   std::map<std::string, std::uint64_t> refusals_;

@@ -13,7 +13,7 @@
 #include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/simulation/mission_params.h"
 #include "ccir_mapping/core/transport/bridge_params.h"
-#include "ccir_mapping/core/transport/link_emulator.h"
+#include "ccir_mapping/core/testing/link_emulator.h"
 
 namespace ccir_mapping::core::runner {
 
@@ -35,7 +35,7 @@ struct RunnerParams {
   /// are not used: there are no sockets).
   transport::BridgeParams bridge;
   /// The radio under the budget: its rate, delay, jitter and losses (seeded per link from it).
-  transport::LinkEmulatorParams radio;
+  testing::LinkEmulatorParams radio;
 
   Topology topology = Topology::kAllPairs;
   /// radio_range: two robots are linked while their true positions are at most this far apart.

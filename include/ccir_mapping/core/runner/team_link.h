@@ -14,7 +14,7 @@
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/runner/team_message.h"
 #include "ccir_mapping/core/transport/bridge_params.h"
-#include "ccir_mapping/core/transport/link_emulator.h"
+#include "ccir_mapping/core/testing/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 
 namespace ccir_mapping::core::runner {
@@ -27,7 +27,7 @@ struct Delivery {
 class TeamLink {
  public:
   /// `total` is the sender's bucket over all its links (null: none).
-  TeamLink(const transport::BridgeParams& bridge, const transport::LinkEmulatorParams& radio,
+  TeamLink(const transport::BridgeParams& bridge, const testing::LinkEmulatorParams& radio,
            std::shared_ptr<transport::TokenBucket> total, double now_s);
 
   void enqueue(TeamMessage message, double now_s);
@@ -43,7 +43,7 @@ class TeamLink {
 
  private:
   transport::LinkScheduler scheduler_;
-  transport::LinkEmulator radio_;
+  testing::LinkEmulator radio_;
   double budget_;
   double total_budget_;
   /// Messages queued or in flight, by topic and sequence.

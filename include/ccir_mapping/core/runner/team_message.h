@@ -11,40 +11,19 @@
 #include <variant>
 #include <vector>
 
-#include "ccir_mapping/core/backend/loop_closure.h"
 #include "ccir_mapping/core/common/types.h"
-#include "ccir_mapping/core/routing/broker_params.h"
+#include "ccir_mapping/core/place_recognition/matcher_stage.h"
+#include "ccir_mapping/core/pose_graph/loop_closure.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
+#include "ccir_mapping/core/routing/scan_encoding.h"
 
 namespace ccir_mapping::core::runner {
 
-/// A keyframe's word set (KeyframeFeatures).
-struct WordsMessage {
-  std::string robot;
-  KeyframeId id = 0;
-  Stamp stamp = 0;
-  std::string vocabulary_hash;
-  std::vector<std::uint32_t> words;
-  std::uint32_t descriptor_count = 0;
-};
-
-/// A keyframe's wire form (SharedScan): routing::encodeKeyframeScan's bytes and what comes with
-/// them.
-struct WireScan {
-  std::string robot;
-  KeyframeId id = 0;
-  Stamp stamp = 0;
-  Pose3 odom_pose = Pose3::Identity();
-  float travelled_m = 0.0F;
-  float rotated_rad = 0.0F;
-  routing::ScanEncoding encoding = routing::ScanEncoding::kCloud;
-  std::uint32_t point_count = 0;
-  std::vector<std::uint8_t> points;
-};
-
 /// One message on a link; a scan is shared, not copied, between the teammates it goes to.
-using TeamMessage = std::variant<WordsMessage, routing::Offer, routing::Request, routing::Receipt,
-                                 backend::LoopClosureData, std::shared_ptr<const WireScan>>;
+using TeamMessage =
+    std::variant<place_recognition::KeyframeWords, routing::Offer, routing::Request,
+                 routing::Receipt, pose_graph::LoopClosureData,
+                 std::shared_ptr<const routing::WireScan>>;
 
 /// The Bridge's topic of each alternative, in TeamMessage's order (scans last: bulk).
 constexpr int kTeamTopics = 6;
@@ -55,6 +34,6 @@ const char* topicName(int topic);
 /// Bytes of the ROS message a robot named `robot` publishes for `message` (its frames are
 /// "<robot>/map", "<robot>/odom" and the sensor's "<robot>/velodyne").
 std::size_t serializedBytes(const TeamMessage& message);
-std::size_t serializedBytes(const WireScan& scan);
+std::size_t serializedBytes(const routing::WireScan& scan);
 
 }  // namespace ccir_mapping::core::runner

@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
-#include "ccir_mapping/core/information/map_stage.h"
+#include "ccir_mapping/core/information/mapper_stage.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/runner/runner_params.h"
-#include "ccir_mapping/core/team/team_graph.h"
+#include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 
 namespace ccir_mapping::core::runner {
@@ -49,13 +49,13 @@ struct RobotResult {
   double odometry_ate_m = 0.0;
   int own_loops = 0;
   int inter_robot_loops = 0;
-  information::MapStage::Stats map;
+  information::MapperStage::Stats map;
   routing::BrokerReport broker;
   std::map<std::string, std::uint64_t> refusals;
   /// Per teammate: what its link to it carried, the first time a transform to it was valid
   /// and the last one's error.
   std::map<std::string, transport::LinkCounters> links;
-  std::vector<team::TeamEstimate> team;
+  std::vector<backend::TeamEstimate> team;
   std::map<std::string, TransformSample> transforms;
 
   // Time series, one row per series_period_s (mission seconds since the mission's start).

@@ -1,0 +1,221 @@
+// One robot's back end: its keyframes and loop closures as one robust pose graph. Per teammate,
+// the EM over inter-robot loop closures decides whether the transform between their frames is
+// known; once it is, the teammate joins the graph (team_graph): its known keyframes become nodes,
+// chained by odometry edges from its poses, and the inter-robot closures with it become switchable
+// constraints like intra-robot ones. Closures between two teammates (found by one of them and
+// shared) enter too once both are in the graph, so that each robot's graph holds the whole
+// team's (the distributed formulation of Dong et al., ICRA 2015). Two filters in series: a
+// closure enters the graph when the EM of its link (this robot and a teammate, or the two
+// teammates) counts it an inlier (or the graph's switches kept it before), and the switches then
+// judge it against everything else in the graph.
+//
+//   own:       o---o---o---o---o---o---o---o        o own keyframe, --- odometry
+//                  :               :                 : inter-robot loop closure (switchable)
+//   teammate:      x---x---x---x---x---x             x teammate keyframe, placed by the graph
+//                      :       :
+//   teammate 2:        y---y---y---y                 y another's, held to x by x's closures
+//
+// The teammate's transform is the graph's gauge of its part: the EM's initialises its nodes, and
+// after each solve the transform is re-fitted (x y z yaw) between the teammate's own poses and
+// their optimised ones, so every accepted closure refines it.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "ccir_mapping/core/alignment/frame_alignment.h"
+#include "ccir_mapping/core/backend/backend_params.h"
+#include "ccir_mapping/core/pose_graph/loop_closure.h"
+#include "ccir_mapping/core/pose_graph/pose_graph_optimizer.h"
+#include "ccir_mapping/core/common/notice.h"
+#include "ccir_mapping/core/common/tum_trajectory.h"
+
+namespace ccir_mapping::core::backend {
+
+struct TeamEstimate {
+  std::string peer;
+  /// The EM's decision and inliers; once the teammate is in the graph, alignment.transform is
+  /// the graph's (refined) transform.
+  alignment::AlignmentResult alignment;
+  int candidates = 0;
+  /// The teammate's keyframes are optimised in this robot's graph.
+  bool in_graph = false;
+};
+
+/// A teammate's keyframes in the graph: ids and optimised poses in this robot's map frame.
+struct PeerKeyframes {
+  std::string robot;
+  std::vector<KeyframeId> ids;
+  std::vector<Pose3> poses;
+};
+
+/// A loop closure to draw: its two keyframes' positions in the map frame.
+struct LoopLine {
+  Eigen::Vector3d from = Eigen::Vector3d::Zero();
+  Eigen::Vector3d to = Eigen::Vector3d::Zero();
+  /// Kept by the robust optimiser (an inter-robot one of a teammate not in the graph: an
+  /// inlier of the EM, the teammate's keyframe placed with its transform).
+  bool accepted = false;
+  bool inter_robot = false;
+};
+
+struct BackendSnapshot {
+  /// This robot's keyframes: id, stamp and optimised pose in the map frame, in id order.
+  std::vector<KeyframeId> ids;
+  std::vector<Stamp> stamps;
+  std::vector<Pose3> poses;
+  /// The newest keyframe's odometry pose.
+  Pose3 latest_odom_pose = Pose3::Identity();
+  std::vector<TeamEstimate> team;
+  /// Teammates in the graph, in name order.
+  std::vector<PeerKeyframes> peer_keyframes;
+  std::vector<LoopLine> loop_lines;
+  /// Intra-robot closures and those the switches turned off; inter-robot closures with joined
+  /// teammates and those the gate or the switches turned away.
+  struct LoopCounts {
+    int intra = 0, intra_rejected = 0, inter = 0, inter_rejected = 0;
+  } loops;
+  /// What this optimisation decided that a user should hear of (a teammate joined, an EM
+  /// result disagreeing with the graph and how it was resolved).
+  std::vector<Notice> notices;
+  double solve_s = 0.0;
+
+  /// The odometry frame in the map frame: the correction the newest optimisation makes to
+  /// odometry (identity while there is no keyframe).
+  Pose3 mapFromOdom() const {
+    return poses.empty() ? Pose3::Identity() : Pose3(poses.back() * latest_odom_pose.inverse());
+  }
+};
+
+class TeamGraph {
+ public:
+  /// Throws std::invalid_argument when params.validate() reports errors.
+  TeamGraph(std::string robot, const backend::BackendParams& params);
+
+  const std::string& robot() const { return robot_; }
+
+  /// This robot's keyframes, in id order (ids increasing), with their odometry poses.
+  /// Returns false (and changes nothing) for a non-increasing id or an invalid pose.
+  bool addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose);
+  /// A teammate's keyframe, with its pose in the teammate's frame.
+  bool addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose);
+  /// Intra-robot (own), or inter-robot: with this robot, or between two teammates (found by one
+  /// of them and shared); kept until both keyframes are in the graph. False for a teammate's own
+  /// closure (never shared), an invalid pose or covariance, or one knows() already.
+  bool addLoopClosure(const pose_graph::LoopClosureData& loop);
+  /// Whether a closure between the same two keyframes (either direction) was added: both robots
+  /// of a pair may find and share it, and it must count once.
+  bool knows(const pose_graph::LoopClosureData& loop) const;
+
+  /// Optimises the graph and re-estimates every team transform, within max_solve_time_s (the
+  /// EM gets at most kEmTimeShare of it, split between the links; the solve the rest). A
+  /// teammate whose EM transform is found joins the graph (and is optimised at once). Once joined,
+  /// a later EM transform farther than team_disagreement_m / _deg from the graph's is a
+  /// disagreement, resolved by the EM's own rule: the graph's transform is kept while its switches
+  /// accept at least the EM's inlier count less team_inlier_margin closures with that teammate;
+  /// otherwise the teammate's part is placed again from the EM transform and re-optimised. Either
+  /// way a notice says which.
+  BackendSnapshot optimize();
+  static constexpr double kEmTimeShare = 0.4;
+  /// A joined teammate's EM runs again in full once its closures grew by this share; between,
+  /// the last transform is re-checked against the new ones.
+  static constexpr double kEmRerunGrowth = 0.1;
+
+  /// The whole graph of the last optimisation for inspection (writeG2o): own and teammates'
+  /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
+  /// `robots`; the index is the keyframe id), and each edge's switch value (1 for odometry).
+  pose_graph::PoseGraph exportGraph(std::vector<double>* switch_values,
+                                 std::vector<std::string>* robots) const;
+  /// exportGraph() written as g2o (switchable loop closures with their values), preceded by a
+  /// comment naming each robot's letter. Throws std::runtime_error when it cannot write.
+  void saveG2o(const std::string& path) const;
+  /// This robot's keyframes (stamps, poses): in the map frame as of the last optimisation (the
+  /// newer ones continued by odometry), and their odometry poses in the odometry frame.
+  TumTrajectory trajectory() const;
+  TumTrajectory odometry() const;
+  /// Writes DIR/team_graph.g2o (saveG2o), DIR/trajectory.tum and DIR/odometry.tum (TUM format),
+  /// creating DIR, and returns their paths. Throws std::runtime_error naming what it could not
+  /// write.
+  std::vector<std::string> save(const std::string& dir) const;
+
+  /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
+  /// teammates' parts and every accepted closure included).
+  std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
+  /// CCIR's u_k of the given keyframes: the geometric mean of the eigenvalues of each one's
+  /// marginal position covariance, m^2 (monotone in their product, the thesis's u, and still a
+  /// variance: the product of three ~1e-3 m^2 variances underflows the scale of everything else).
+  std::optional<std::vector<double>> positionVariances(const std::vector<KeyframeId>& ids) const;
+
+ private:
+  std::string robot_;
+  backend::BackendParams params_;
+  pose_graph::PoseGraphOptimizer optimizer_;
+  pose_graph::PoseGraph graph_;  // this robot's keyframes
+  std::vector<KeyframeId> ids_;
+  std::vector<Stamp> stamps_;
+  std::vector<Pose3> odom_poses_;
+  pose_graph::OdometryUncertainty odom_uncertainty_;
+  std::vector<pose_graph::Covariance6> odom_covariances_;  // of odom_poses_, world frame
+  std::map<KeyframeId, int> index_;
+  std::map<std::string, std::map<KeyframeId, Pose3>> peers_;
+  /// Teammates in the graph: their transform and the optimised poses of their keyframes.
+  struct Joined {
+    Pose3 transform = Pose3::Identity();
+    std::map<KeyframeId, Pose3> poses;
+  };
+  std::map<std::string, Joined> joined_;
+  std::vector<pose_graph::LoopClosureData> loops_;  // all of them; resolved at each optimisation
+  /// The two keyframes of each of loops_, in a fixed order.
+  using KeyframeOf = std::pair<std::string, KeyframeId>;
+  using LoopKey = std::pair<KeyframeOf, KeyframeOf>;
+  static LoopKey keyOf(const pose_graph::LoopClosureData& loop);
+  std::set<LoopKey> loop_keys_;
+  std::vector<double> last_weights_;
+  pose_graph::PoseGraph last_graph_;   // the whole graph of the last optimisation
+  std::size_t last_own_count_ = 0;  // own keyframes (its first nodes) in last_graph_
+  std::vector<std::pair<std::string, KeyframeId>> last_nodes_;  // the keyframe of each node
+
+  /// Index of own keyframe `id` in the graph, or -1.
+  int ownIndex(KeyframeId id) const;
+  /// Two robots whose closures one EM judges: (this robot, a teammate), or two teammates in name
+  /// order (closures one of them found and shared).
+  using Link = std::pair<std::string, std::string>;
+  /// An inter-robot closure along its link: keyframe `first` of link.first, keyframe `second` of
+  /// link.second, and the second's pose in the first's frame.
+  struct Oriented {
+    Link link;
+    KeyframeId first;
+    KeyframeId second;
+    Pose3 relative;
+  };
+  /// nullopt for a closure within one robot.
+  std::optional<Oriented> oriented(const pose_graph::LoopClosureData& loop) const;
+  /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
+  /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_ whose keyframes
+  /// are both in it), keeps its poses
+  /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
+  void solve(BackendSnapshot& snapshot, double max_time_s);
+  /// The EM's candidates along one link, and the closure each one is.
+  struct Candidates {
+    std::vector<alignment::AlignmentCandidate> list;
+    std::vector<LoopKey> keys;
+  };
+  /// Per link: own keyframes at their optimised poses, teammates' at their own, each with its
+  /// drift.
+  std::map<Link, Candidates> candidates() const;
+  /// Covariance of each of the teammate's poses from its odometry (this robot's noise model).
+  std::map<KeyframeId, pose_graph::Covariance6> peerDrift(const std::string& peer) const;
+  /// The teammate's transform fitted (x y z yaw) from its own poses to its optimised ones.
+  Pose3 refinedTransform(const std::string& peer) const;
+  /// Inter-robot closures the EM counts as inliers (this optimisation), and those the graph's
+  /// switches kept (the last solve), per link.
+  std::map<Link, std::set<LoopKey>> gate_;
+  std::map<Link, std::set<LoopKey>> kept_;
+  /// Per link: its closures at the last full EM, and that EM's result.
+  std::map<Link, std::pair<std::size_t, alignment::AlignmentResult>> last_em_;
+};
+
+}  // namespace ccir_mapping::core::backend
