@@ -1,5 +1,6 @@
-"""Scores the runs of scripts/benchmarks/ccir_vs_fixed_rate_demo (one demo report each, with its time
-series) against the simulator's truth and prints the comparison as JSON."""
+"""Scores the runs of scripts/benchmarks/ccir_vs_fixed_rate_demo (one demo report each, with its
+time series) or of scripts/experiments/ccir_vs_fixed_rate_run_team against the simulator's truth
+and prints the comparison as JSON."""
 import json
 import os
 import sys
@@ -30,8 +31,9 @@ def score(run_dir):
     return {
         "bytes_sent": sent,
         "mean_kb_per_s_per_robot": round(sent / 1e3 / duration / len(robots), 1),
-        "peak_kb_per_s_per_link": max((l["peak_kb_per_s"] for r in robots
-                                       for l in r.get("link_series", {}).values()), default=None),
+        "peak_kb_per_s_per_link": max((link["peak_kb_per_s"] for r in robots
+                                       for link in r.get("link_series", {}).values()),
+                                      default=None),
         "transforms_found": len(transforms),
         "transforms": {"%s->%s" % k: {"error_m": round(t["error_m"], 3),
                                       "error_deg": round(t["error_deg"], 2),
@@ -65,7 +67,8 @@ def compare(out):
     match = None
     if ccir:
         for n, s in sorted(fixed.items(), key=lambda x: -x[0]):  # sparsest first
-            enough = all(s["known_volume_m3"][r] >= 0.9 * v for r, v in ccir["known_volume_m3"].items())
+            enough = all(s["known_volume_m3"][r] >= 0.9 * v
+                         for r, v in ccir["known_volume_m3"].items())
             if set(ccir["transforms"]) <= set(s["transforms"]) and enough:
                 match = (n, s)
                 break

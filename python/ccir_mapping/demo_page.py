@@ -102,9 +102,9 @@ def main():
              for r in report["robots"] for peer, s in sorted(r["link_series"].items())]
     add("bytes_per_link.png", "Bytes sent per link",
         "Cumulative wire bytes each robot's bridge sent to each teammate (budget %s)."
-        % ", ".join(sorted({"%.0f KB/s" % (l["budget_bytes_per_s"] / 1e3)
-                            for r in report["robots"] for l in r["links"].values()
-                            if l.get("budget_bytes_per_s")})),
+        % ", ".join(sorted({"%.0f KB/s" % (link["budget_bytes_per_s"] / 1e3)
+                            for r in report["robots"] for link in r["links"].values()
+                            if link.get("budget_bytes_per_s")})),
         line_plot(os.path.join(out, "plots/bytes_per_link.png"), "bytes sent per link",
                   "KB", links, report["duration_s"]))
     volume = [(r["name"], [row[0] for row in r["map_series"]],

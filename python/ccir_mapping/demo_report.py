@@ -148,14 +148,15 @@ class Report:
 
     def links_idle(self):
         """Every link up and nothing waiting to be sent."""
-        return self.links and all(l.connected and l.queued_control + l.queued_bulk == 0
-                                  for l in self.links.values())
+        return self.links and all(link.connected and link.queued_control + link.queued_bulk == 0
+                                  for link in self.links.values())
 
     def on_diagnostics(self, msg):
         for status in msg.status:
             nodelet = status.name.split(":")[0].split("/")[-1]
             self.updated_at[nodelet] = time.monotonic()
-            self.levels[nodelet] = ord(status.level) if isinstance(status.level, bytes) else status.level
+            self.levels[nodelet] = (ord(status.level) if isinstance(status.level, bytes)
+                                    else status.level)
             self.flows[nodelet] = {kv.key: int(kv.value) if kv.value.isdigit() else kv.value
                                    for kv in status.values}
 
@@ -186,7 +187,8 @@ class Report:
         return {
             "keyframes": len(self.keyframes),
             "keyframe_spacing_m": {"mean": sum(spacing) / len(spacing) if spacing else 0.0,
-                                   "min": min(spacing, default=0.0), "max": max(spacing, default=0.0)},
+                                   "min": min(spacing, default=0.0),
+                                   "max": max(spacing, default=0.0)},
             "features_to_outbox": self.features,
             "trajectory_poses": len(self.trajectory.poses) if self.trajectory else 0,
             "broker": None if b is None else {
@@ -219,12 +221,12 @@ class Report:
                              "queued": l.queued_control + l.queued_bulk,
                              "drops": dict(zip(l.drop_reasons, l.drop_counts))}
                       for peer, l in sorted(self.links.items())},
-            "team_transforms": {peer: {
-                "valid": t.valid, "inliers": t.inliers, "candidates": t.candidates,
-                "translation": [t.transform.translation.x, t.transform.translation.y,
-                                t.transform.translation.z],
-                "rotation_xyzw": [t.transform.rotation.x, t.transform.rotation.y,
-                                  t.transform.rotation.z, t.transform.rotation.w]}
+            "team_transforms": {
+                peer: {"valid": t.valid, "inliers": t.inliers, "candidates": t.candidates,
+                       "translation": [t.transform.translation.x, t.transform.translation.y,
+                                       t.transform.translation.z],
+                       "rotation_xyzw": [t.transform.rotation.x, t.transform.rotation.y,
+                                         t.transform.rotation.z, t.transform.rotation.w]}
                 for peer, t in sorted(self.team.items())},
             "inbox_scans": self.inbox_scans,
             "inbox_features": self.inbox_features,
@@ -269,7 +271,8 @@ def main():
     drain = time.monotonic() + 90.0
     received, quiet_since = None, time.monotonic()
     while time.monotonic() < drain:
-        now_received = sum(l.bytes_received + l.bytes_sent for l in report.links.values())
+        now_received = sum(link.bytes_received + link.bytes_sent
+                           for link in report.links.values())
         if now_received != received:
             received, quiet_since = now_received, time.monotonic()
         if report.links_idle() and time.monotonic() - quiet_since > 3.0:

@@ -219,7 +219,7 @@ def main():
             r["keyframe_spacing_m"]["mean"], r["word_sets"], r["own_loop_closures"],
             r["features_to_outbox"], r["broker"].get("scans_sent", 0), m.get("known_volume_m3", 0),
             "-" if not m else "%.2f" % (m["entropy_drop_bits"] / 1e6)))
-    budgets = {l.get("budget_bytes_per_s") for r in robots for l in r["links"].values()}
+    budgets = {link.get("budget_bytes_per_s") for r in robots for link in r["links"].values()}
     lines.append("  bridges (budget %s KB/s per robot):" % "/".join(
         "%.0f" % (b / 1e3) for b in sorted(b for b in budgets if b) or [150000]))
     drift = {r["name"]: r["odometry_drift_m"] for r in robots}
@@ -250,8 +250,9 @@ def main():
                              "; refused: " + refused if refused else ""))
         for t in r["team_frames"]:
             if "error_m" in t:
-                lines.append("  %-9s knows %s's map frame (since %s s) from %d of %d loop closures: "
-                             "%.2f m, %.1f deg from the truth (odometry drift at the end: %s)" % (
+                lines.append("  %-9s knows %s's map frame (since %s s) from %d of %d loop "
+                             "closures: %.2f m, %.1f deg from the truth (odometry drift at the "
+                             "end: %s)" % (
                                  r["name"], t["peer"], t.get("first_valid_s", "?"), t["inliers"],
                                  t["candidates"], t["error_m"], t["error_deg"], ", ".join(
                                      "%s %.2f m" % (n, drift[n]) for n in (r["name"], t["peer"])
@@ -272,7 +273,8 @@ def main():
         if r["manager_cpu_s"] is None:
             continue
         stages = ", ".join("%s %.0f" % (stage, 1e3 * s / max(1, r["keyframes"]))
-                           for stage, s in r["stage_cpu_s"].items() if s >= 0.05 * r["keyframes"] / 1e3)
+                           for stage, s in r["stage_cpu_s"].items()
+                           if s >= 0.05 * r["keyframes"] / 1e3)
         lat = r["latency_mission_s"] or {}
         lines.append("  %-9s %.2f core; ms per keyframe: %s" % (
             r["name"], r["manager_cpu_s"] / duration_s, stages))

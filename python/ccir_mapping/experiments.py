@@ -60,8 +60,8 @@ def run_team(args, run_dir, flags):
                                   env=args.env)
         if done.returncode != 0:
             sys.exit("run_team failed: see %s/run_team.log" % run_dir)
-        print("[experiments] %s: %.0f s" % (os.path.relpath(run_dir, args.out),
-                                             time.monotonic() - started), file=sys.stderr)
+        print("[experiments] %s: %.0f s"
+              % (os.path.relpath(run_dir, args.out), time.monotonic() - started), file=sys.stderr)
     return json.load(open(report))
 
 
@@ -95,7 +95,7 @@ def ccir_vs_fixed_rate(args):
                 out = os.path.join(args.out, name)
                 budget = ["--budget-bytes-per-s", str(args.budget_bytes_per_s)]
                 free = ["--budget-bytes-per-s", str(UNTHROTTLED)]
-                ccir = run_team(args, os.path.join(out, "ccir"), base + ["--mode", "ccir"] + budget)
+                run_team(args, os.path.join(out, "ccir"), base + ["--mode", "ccir"] + budget)
                 every = run_team(args, os.path.join(out, "all"), base + ["--mode", "all"] + free)
                 for n in sorted((int(n) for n in args.every_n.split(",")), reverse=True):
                     run_team(args, os.path.join(out, "fixed_rate_%d" % n),
@@ -227,8 +227,9 @@ def scale(args):
             "--max-peers", str(args.max_peers), "--line-of-sight",
             "--budget-bytes-per-s", str(args.budget_bytes_per_s), "--mode", "ccir"])
         d, n = report["duration_s"], len(report["robots"])
-        sent = sum(l["bytes_sent"] for r in report["robots"] for l in r["links"].values())
-        messages = sum(l["messages_sent"] for r in report["robots"] for l in r["links"].values())
+        links = [link for r in report["robots"] for link in r["links"].values()]
+        sent = sum(link["bytes_sent"] for link in links)
+        messages = sum(link["messages_sent"] for link in links)
         cpu = sum(r["cpu_s"]["pipeline"] + r["cpu_s"]["recording_and_preprocessing"]
                   for r in report["robots"])
         peers = sum(report.get("link_up_s", {}).values()) / d / n
@@ -291,7 +292,8 @@ def long_mission(args):
     memory = report["memory_series"]
     axes[1].plot([m[0] for m in memory], [m[1] / 1e6 / n for m in memory])
     at5 = next((m[1] for m in memory if m[0] >= 300), memory[-1][1])
-    summary["resident_mb_per_robot"] = {"at_5_min": at5 / 1e6 / n, "at_end": memory[-1][1] / 1e6 / n}
+    summary["resident_mb_per_robot"] = {"at_5_min": at5 / 1e6 / n,
+                                        "at_end": memory[-1][1] / 1e6 / n}
     summary["duration_s"] = report["duration_s"]
     for ax, title in zip(axes, ["CPU per robot (cores, 10 s windows)", "resident MB per robot",
                                 "known volume, m³"]):

@@ -13,7 +13,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-METHODS = {"fabmap": "C0", "histogram": "C1", "scan_context": "C2", "hgmm": "C3"}  # and their colours
+# The methods and their colours.
+METHODS = {"fabmap": "C0", "histogram": "C1", "scan_context": "C2", "hgmm": "C3"}
 # The README's missions: 120 s, robots on each other's lanes, a 3 x 3-pillar mine.
 MISSION_FLAGS = ["--world", "mine", "--mine-pillars-x", "3", "--mine-pillars-y", "3",
                  "--robots", "2", "--duration-s", "120", "--overlap", "1"]
@@ -64,8 +65,9 @@ def table(results):
             cells["verified"].append("%d/%d (%.2f, %.2f)" % (v["tp"], v["fp"], v["precision"],
                                                              v["recall"]))
             e = x["team_frame"]
-            cells["em"].append("%d/%d (%.2f, %.2f)" % (e["tp"], e["fp"], e["precision"], e["recall"])
-                               if e["tp"] + e["fp"] else "none")
+            cells["em"].append(
+                "%d/%d (%.2f, %.2f)" % (e["tp"], e["fp"], e["precision"], e["recall"])
+                if e["tp"] + e["fp"] else "none")
             cells["r1"].append("%.2f" % x["recall_at_1"])
             cells["r5"].append("%.2f" % x["recall_at_5"])
             cells["ap_b"].append("%.2f" % x["pr_best_ranked"]["average_precision"])
@@ -84,7 +86,8 @@ def plot(results, path):
                 points = r["methods"][m][key]["recall_precision"]
                 ax.plot([p[0] for p in points], [p[1] for p in points], color=color, alpha=0.6,
                         label=m if seed == results[0][0] else None)
-    for ax, title in zip(axes, ["best-ranked place, over its score", "verified closure, over its score"]):
+    for ax, title in zip(axes, ["best-ranked place, over its score",
+                                "verified closure, over its score"]):
         ax.set_title(title)
         ax.set_xlabel("recall (of truly overlapping queries)")
         ax.set_ylabel("precision")

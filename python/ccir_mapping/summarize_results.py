@@ -55,7 +55,8 @@ def main(results_dirs):
               % (status, name, counts["passed"], counts["failed"], counts["skipped"]))
         for case, message in failures:
             print("       failed: %s: %s" % (case, message[:200]))
-    print("%d passed, %d failed, %d skipped" % (totals["passed"], totals["failed"], totals["skipped"]))
+    print("%d passed, %d failed, %d skipped"
+          % (totals["passed"], totals["failed"], totals["skipped"]))
     ran = totals["passed"] + totals["failed"]
     return 0 if ran and not totals["failed"] else 1
 

@@ -2,10 +2,7 @@
 // tf, TeamTransform, teammates' keyframes as the team graph places them, pose uncertainty.
 // Callbacks hand their input to core::backend::BackendStage, which optimises on its own thread
 // (at optimize_period_s and as soon as a loop closure arrives) and routes each loop closure.
-#include <mutex>
-
 #include <nav_msgs/Path.h>
-#include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -19,13 +16,11 @@
 namespace ccir_mapping {
 
 using Stage = core::backend::BackendStage;
+using Loop = core::pose_graph::LoopClosureData;
 
 class BackendNodelet final : public PipelineNodelet {
  public:
-  ~BackendNodelet() override {
-    std::string message;
-    if (stage_ && settings_.save.on_shutdown) save(&message);
-  }
+  ~BackendNodelet() override { saveAtShutdown(); }
 
  private:
   void onInit() override {
@@ -63,26 +58,12 @@ class BackendNodelet final : public PipelineNodelet {
     subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
               &BackendNodelet::onTeammateLoopClosure);
     createPeriodicTimer(settings_.core.optimize_period_s, [this] { stage_->tick(); });
-    if (settings_.save.period_s > 0)
-      createPeriodicTimer(settings_.save.period_s, [this] {
-        std::string message;
-        save(&message);
-      });
-    save_srv_ = getPrivateNodeHandle().advertiseService("save_team_graph",
-                                                        &BackendNodelet::onSaveGraph, this);
-  }
-
-  /// After the optimisation under way, if any.
-  bool save(std::string* message) {
-    return saveFiles([this] { return stage_->save(settings_.save.dir); }, message);
-  }
-
-  bool onSaveGraph(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-    response.success = save(&response.message);
-    return true;
+    // After the optimisation under way, if any.
+    serveSaving("save_team_graph", settings_.save, [this] { return stage_->save(saveDir()); });
   }
 
   const std::string& robot() const { return settings_.frames.robot_name; }
+  const std::string& saveDir() const { return settings_.save.dir; }
 
   void onKeyframe(const Keyframe& k) {
     stage_->add(Stage::OwnKeyframe{k.robot, k.id, conversions::toStamp(k.header.stamp),
@@ -100,8 +81,8 @@ class BackendNodelet final : public PipelineNodelet {
   void onTeammateLoopClosure(const LoopClosure& msg) {
     if (const auto loop = toLoop(msg, "inbox/loop_closures")) stage_->addTeammateLoop(*loop);
   }
-  std::optional<core::pose_graph::LoopClosureData> toLoop(const LoopClosure& msg, const char* flow) {
-    core::pose_graph::LoopClosureData loop;
+  std::optional<Loop> toLoop(const LoopClosure& msg, const char* flow) {
+    Loop loop;
     if (conversions::toLoopClosure(msg, &loop)) return loop;
     drop(flow, "dropping a loop closure from %s: relative pose not finite", flow);
     return std::nullopt;
@@ -144,28 +125,22 @@ class BackendNodelet final : public PipelineNodelet {
               boost::make_shared<const KeyframeUncertainty>(conversions::toKeyframeUncertaintyMsg(
                   robot(), path->header, snapshot.ids, *out.uncertainty)));
     }
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    last_solve_s_ = snapshot.solve_s;
-    last_loops_ = snapshot.loops;
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    status.addf("last optimisation s", "%.3f", last_solve_s_);
-    status.add("intra-robot loops", last_loops_.intra);
-    status.add("intra-robot loops rejected", last_loops_.intra_rejected);
-    status.add("inter-robot loops in the graph", last_loops_.inter);
-    status.add("inter-robot loops rejected", last_loops_.inter_rejected);
+    if (!stage_) return;
+    const auto latest = stage_->latest();
+    status.addf("last optimisation s", "%.3f", latest.solve_s);
+    status.add("intra-robot loops", latest.loops.intra);
+    status.add("intra-robot loops rejected", latest.loops.intra_rejected);
+    status.add("inter-robot loops in the graph", latest.loops.inter);
+    status.add("inter-robot loops rejected", latest.loops.inter_rejected);
   }
 
   ros_params::BackendSettings settings_;
-  std::mutex stats_mutex_;
-  double last_solve_s_ = 0.0;  // the newest optimisation's, for diagnostics
-  core::backend::BackendSnapshot::LoopCounts last_loops_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
-  ros::Time last_tf_stamp_;  // of the last transforms sent (worker thread only)
-  std::unique_ptr<Stage> stage_;  // stopped after the service, while what it publishes with lives
-  ros::ServiceServer save_srv_;
+  ros::Time last_tf_stamp_;       // of the last transforms sent (worker thread only)
+  std::unique_ptr<Stage> stage_;  // stopped while what it publishes with lives
 };
 
 }  // namespace ccir_mapping

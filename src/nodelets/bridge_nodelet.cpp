@@ -1,8 +1,8 @@
 // Bridge: carries the outbox topics to teammates' ROS masters and republishes theirs on the
 // inbox (names: ros/topic_routes.h). Any message type: subscribed as topic_tools::ShapeShifter
 // (type, md5, definition and latching come from the publisher's connection header) and
-// republished from the bytes and that description. The network side is core::transport::BridgeStage;
-// this nodelet converts and reports.
+// republished from the bytes and that description. The network side is
+// core::transport::BridgeStage; this nodelet converts and reports.
 #include <topic_tools/shape_shifter.h>
 #include <pluginlib/class_list_macros.hpp>
 

@@ -7,7 +7,6 @@
 #include <nav_msgs/Path.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <std_srvs/Trigger.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "ccir_mapping/core/information/mapper_stage.h"
@@ -22,10 +21,7 @@ namespace info = core::information;
 
 class MapperNodelet final : public PipelineNodelet {
  public:
-  ~MapperNodelet() override {
-    std::string message;
-    if (stage_ && settings_.save.on_shutdown) save(&message);
-  }
+  ~MapperNodelet() override { saveAtShutdown(); }
 
  private:
   void onInit() override {
@@ -35,13 +31,14 @@ class MapperNodelet final : public PipelineNodelet {
     hooks.rebuilt = [this](std::size_t scans, double seconds) {
       NODELET_INFO("map rebuilt at the optimised poses from %zu scans in %.1f s", scans, seconds);
     };
-    stage_ = std::make_unique<info::MapperStage>(settings_.frames.robot_name, settings_.core, hooks);
+    stage_ =
+        std::make_unique<info::MapperStage>(settings_.frames.robot_name, settings_.core, hooks);
     try {
       if (settings_.save.resume && stage_->resume(settings_.save.dir)) {
         NODELET_INFO("resuming the map saved in %s", settings_.save.dir.c_str());
       }
     } catch (const std::exception& e) {
-      stage_.reset();  // inert, and nothing saved over the file at shutdown
+      stage_.reset();  // inert, and nothing saved over the file at shutdown (nothing served)
       return failConfiguration(std::string(e.what()) + " (save_dir, resume)");
     }
     info::SharedMap::registerMap(getName(), stage_->map());  // for the Broker (its `mapper`)
@@ -52,12 +49,8 @@ class MapperNodelet final : public PipelineNodelet {
     subscribe(topics::kTrajectory, topics::kLatestOnlyQueueSize, &MapperNodelet::onTrajectory);
     subscribe(topics::kTeamTransforms, topics::kMessageQueueSize, &MapperNodelet::onTeamTransform);
     subscribe(topics::kTeamKeyframePoses, topics::kMessageQueueSize, &MapperNodelet::onPeerPoses);
-    save_srv_ = getPrivateNodeHandle().advertiseService("save_map", &MapperNodelet::onSave, this);
-    if (settings_.save.period_s > 0)
-      createPeriodicTimer(settings_.save.period_s, [this] {
-        std::string message;
-        save(&message);
-      });
+    serveSaving("save_map", settings_.save,
+                [this] { return std::optional(std::vector{stage_->save(settings_.save.dir)}); });
     createPeriodicTimer(settings_.core.publish_period_s,
                         [this] { measured("statistics", [this] { onTimer(); }); });
   }
@@ -131,18 +124,8 @@ class MapperNodelet final : public PipelineNodelet {
     publish(topics::kMapCloud, boost::shared_ptr<const sensor_msgs::PointCloud2>(cloud));
   }
 
-  bool save(std::string* message) {
-    return saveFiles([this] { return std::vector{stage_->save(settings_.save.dir)}; }, message);
-  }
-
-  bool onSave(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-    response.success = save(&response.message);
-    return true;
-  }
-
   ros_params::MapperSettings settings_;
   std::unique_ptr<info::MapperStage> stage_;
-  ros::ServiceServer save_srv_;
 };
 
 }  // namespace ccir_mapping

@@ -47,7 +47,7 @@ class MatcherNodelet final : public PipelineNodelet {
 
   /// The keyframe's cloud and odometry pose, or nullopt (dropped from `flow`).
   std::optional<std::pair<pr::MatcherStage::Cloud, core::Pose3>> read(const Keyframe& keyframe,
-                                                                     const char* flow) {
+                                                                      const char* flow) {
     std::pair<pr::MatcherStage::Cloud, core::Pose3> scan;
     std::optional<std::string> error = conversions::toKeyframeCloud(keyframe.cloud, &scan.first);
     const auto pose = conversions::toPose(keyframe.odom_pose);
@@ -65,9 +65,9 @@ class MatcherNodelet final : public PipelineNodelet {
   void publish(const pr::MatcherStage::Output& out, const std_msgs::Header& header) {
     for (const auto& refusal : out.refused) drop(refusal.kind, "%s", refusal.text.c_str());
     if (out.features) {
-      PipelineNodelet::publish(topics::kFeatures, boost::make_shared<const KeyframeFeatures>(
-                                                      conversions::toKeyframeFeaturesMsg(
-                                                          header, *out.features)));
+      PipelineNodelet::publish(topics::kFeatures,
+                               boost::make_shared<const KeyframeFeatures>(
+                                   conversions::toKeyframeFeaturesMsg(header, *out.features)));
     }
     for (const auto& c : out.correspondences) {
       PipelineNodelet::publish(topics::kCorrespondences,

@@ -48,10 +48,45 @@ void PipelineNodelet::failConfiguration(const std::string& error) {
   config_errors_.push_back(error);
 }
 
-bool PipelineNodelet::saveFiles(
-    const std::function<std::optional<std::vector<std::string>>()>& write, std::string* message) {
+void PipelineNodelet::serveSaving(const std::string& service, const ros_params::SaveSettings& save,
+                                  WriteFiles write) {
+  write_files_ = std::move(write);
+  save_at_shutdown_ = save.on_shutdown;
+  save_service_ =
+      getPrivateNodeHandle()
+          .advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
+              service, [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+                response.success = saveFiles(&response.message);
+                return true;
+              });
+  if (save.period_s > 0) {
+    createPeriodicTimer(save.period_s, [this] {
+      std::string message;
+      saveFiles(&message);
+    });
+  }
+}
+
+void PipelineNodelet::saveAtShutdown() {
+  save_service_.shutdown();
+  std::string message;
+  if (write_files_ && save_at_shutdown_) saveFiles(&message);
+}
+
+void PipelineNodelet::requireWithin(double seconds, std::function<bool()> ok, std::string error) {
+  requirement_timer_ = getNodeHandle().createSteadyTimer(
+      ros::WallDuration(seconds),
+      [this, ok = std::move(ok), error = std::move(error)](const ros::SteadyTimerEvent&) {
+        if (ok()) return;
+        stopWork();
+        failConfiguration(error);
+      },
+      /*oneshot=*/true);
+}
+
+bool PipelineNodelet::saveFiles(std::string* message) {
   try {
-    const auto files = write();
+    const auto files = write_files_();
     if (!files) {
       *message = "stopping: not saved";
       NODELET_WARN("%s", message->c_str());

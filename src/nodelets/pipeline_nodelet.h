@@ -18,12 +18,14 @@
 #include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <boost/function.hpp>
 
 #include "ccir_mapping/core/common/cpu_time.h"
 #include "ccir_mapping/core/common/mission_clock.h"
 #include "ccir_mapping/core/common/periodic_schedule.h"
 #include "ccir_mapping/ros/param_reader.h"
+#include "ccir_mapping/ros/params.h"
 #include "ccir_mapping/ros/reconfigure_table.h"
 
 namespace ccir_mapping {
@@ -95,10 +97,21 @@ class PipelineNodelet : public nodelet::Nodelet {
     return true;
   }
 
-  /// Runs `write` (returns the files it wrote, nullopt when it could not run, throws on an
-  /// error) and logs what happened, which `message` also says; true when it wrote.
-  bool saveFiles(const std::function<std::optional<std::vector<std::string>>()>& write,
-                 std::string* message);
+  /// Writes a nodelet's files: returns the files it wrote, nullopt when it could not run, and
+  /// throws on an error.
+  using WriteFiles = std::function<std::optional<std::vector<std::string>>()>;
+  /// Runs `write` when `service` (std_srvs/Trigger, private) is called, every save.period_s (of
+  /// the clock rates follow; none when 0) and, with save.on_shutdown, at shutdown
+  /// (saveAtShutdown). Each run logs what happened, which the service's reply also says.
+  void serveSaving(const std::string& service, const ros_params::SaveSettings& save,
+                   WriteFiles write);
+  /// The save at shutdown serveSaving promised: call it from the derived nodelet's destructor,
+  /// while what `write` uses still lives.
+  void saveAtShutdown();
+  /// A configuration error unless `ok()` holds within `seconds` after this call (something
+  /// another nodelet must bring, and nodelets load in no order): logged as failConfiguration
+  /// says, then the nodelet stops its work (stopWork).
+  void requireWithin(double seconds, std::function<bool()> ok, std::string error);
 
   /// Subscribes `callback` to `topic` for the nodelet's lifetime, counting each message as the
   /// flow "in <topic>". The callback takes the message (const M&) or, to pass it on without a
@@ -181,6 +194,12 @@ class PipelineNodelet : public nodelet::Nodelet {
 
   /// Counts messages (and bytes) that passed through a named input or output.
   void count(const std::string& flow, std::uint64_t bytes = 0);
+  /// Counts a message dropped from `flow` in its total ("dropped <flow>") and, when `kind` is
+  /// set, per reason ("dropped <flow> (<kind>)").
+  void countDropped(const std::string& flow, const std::string& kind) {
+    count("dropped " + flow);
+    if (!kind.empty()) count("dropped " + flow + " (" + kind + ")");
+  }
   /// Adds CPU seconds spent in a named stage; diagnostics show each stage's total ("cpu s
   /// <stage>") and runs, the figures the CPU budget is measured with (bench_pipeline).
   void addCpu(const std::string& stage, double seconds);
@@ -241,8 +260,14 @@ class PipelineNodelet : public nodelet::Nodelet {
   std::mutex status_mutex_;
   std::map<std::string, Flow> flows_;
   std::map<std::string, Cpu> cpu_;
+  bool saveFiles(std::string* message);
+
   std::vector<ros::SteadyTimer> timers_;
   std::vector<ros::Subscriber> subscribers_;
+  WriteFiles write_files_;  // serveSaving's
+  bool save_at_shutdown_ = false;
+  ros::ServiceServer save_service_;
+  ros::SteadyTimer requirement_timer_;                // requireWithin's
   std::map<std::string, ros::Publisher> publishers_;  // by topic; written in onInit only
   boost::recursive_mutex reconfigure_mutex_;
   std::shared_ptr<void> reconfigure_server_;

@@ -39,9 +39,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(placement_->tf(), nh);
     if (settings_.odom_source == "lidar") tf_broadcaster_.emplace();
     advertise<Keyframe>(topics::kKeyframes, topics::kKeyframeQueueSize);
-    if (settings_.odom_source == "topic") {
+    if (settings_.odom_source == "topic")
       subscribe(topics::kOdometry, 100, &PreprocessorNodelet::onOdometry);
-    }
     subscribe(topics::kVelodynePoints, settings_.scan_queue_size, &PreprocessorNodelet::onCloud);
     if (settings_.odom_source == "tf") {
       // tf arrives on the listener's own thread: look again for scans it can now place.
@@ -55,8 +54,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
 
   void onOdometry(const nav_msgs::Odometry& msg) {
     if (const auto refusal = placement_->addOdometry(msg)) {
-      count("dropped odom");
-      count("dropped odom (" + refusal->problem + ")");
+      countDropped("odom", refusal->problem);
       return warnPerKind("odometry " + refusal->problem, "dropping odometry at %.3f: %s%s%s",
                          msg.header.stamp.toSec(), refusal->problem.c_str(),
                          refusal->detail.empty() ? "" : ": ", refusal->detail.c_str());
@@ -103,7 +101,7 @@ class PreprocessorNodelet final : public PipelineNodelet {
       const auto result =
           stage_->process(conversions::toStamp(msg.header.stamp), *placement.pose, scan_);
       if (result.dropped())
-        countDroppedScan(result.notices.empty() ? "" : result.notices.back().kind);
+        countDropped("scans", result.notices.empty() ? "" : result.notices.back().kind);
       for (const auto& notice : result.notices) {
         warnPerKind(notice.kind, "%s cloud at %.3f: %s",
                     result.dropped() ? "dropping" : "about the", msg.header.stamp.toSec(),
@@ -117,14 +115,8 @@ class PreprocessorNodelet final : public PipelineNodelet {
     }
   }
 
-  /// The total on diagnostics, and per reason.
-  void countDroppedScan(const std::string& kind) {
-    count("dropped scans");
-    if (!kind.empty()) count("dropped scans (" + kind + ")");
-  }
-
   void dropScan(const PointCloud2& cloud, const core::Notice& why) {
-    countDroppedScan(why.kind);
+    countDropped("scans", why.kind);
     warnPerKind(why.kind, "dropping cloud at %.3f in frame '%s': %s", cloud.header.stamp.toSec(),
                 cloud.header.frame_id.c_str(), why.text.c_str());
   }
@@ -135,15 +127,14 @@ class PreprocessorNodelet final : public PipelineNodelet {
     status.add("missed scans (gaps in stamps)", totals.missed_scans);
     status.add("keyframe points in (last)", totals.last_points_in);
     status.add("keyframe points out (last)", totals.last_points_out);
-    status.addf("ms per keyframe (mean)", "%.1f",
-                totals.keyframes ? totals.total_filter_ms / totals.keyframes : 0.0);
+    status.addf("ms per keyframe (mean)", "%.1f", totals.meanFilterMs());
     status.addf("ms per keyframe (max)", "%.1f", totals.max_filter_ms);
   }
 
   ros_params::PreprocessorSettings settings_;
   std::unique_ptr<PreprocessorStage> stage_;
   std::unique_ptr<ScanPlacement> placement_;  // with the scans waiting to be placed
-  PreprocessorStage::InputCloud scan_;            // conversion buffer, reused scan after scan
+  PreprocessorStage::InputCloud scan_;        // conversion buffer, reused scan after scan
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::optional<tf2_ros::TransformBroadcaster> tf_broadcaster_;  // odom_source "lidar"
   ros::SteadyTimer tf_poll_timer_;

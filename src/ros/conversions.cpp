@@ -239,10 +239,9 @@ TeamTransform toTeamTransformMsg(const core::backend::TeamEstimate& estimate,
   return msg;
 }
 
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::backend::BackendSnapshot& snapshot,
-                                                      const std::string& map_frame,
-                                                      const std::string& odom_frame,
-                                                      const ros::Time& stamp) {
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(
+    const core::backend::BackendSnapshot& snapshot, const std::string& map_frame,
+    const std::string& odom_frame, const ros::Time& stamp) {
   std::vector<geometry_msgs::TransformStamped> transforms = {
       toTransformStampedMsg(stamp, map_frame, odom_frame, snapshot.mapFromOdom())};
   for (const auto& estimate : snapshot.team) {
@@ -611,6 +610,18 @@ ScanOffer toOfferMsg(const core::routing::Offer& offer, const std::string& map_f
     msg.scans.push_back(scan);
   }
   return msg;
+}
+
+std::size_t serializedSize(const core::routing::ControlMessage& message,
+                           const std::string& map_frame) {
+  using ros::serialization::serializationLength;
+  if (const auto* offer = std::get_if<core::routing::Offer>(&message)) {
+    return serializationLength(toOfferMsg(*offer, map_frame));
+  }
+  if (const auto* request = std::get_if<core::routing::Request>(&message)) {
+    return serializationLength(toRequestMsg(*request));
+  }
+  return serializationLength(toReceiptMsg(std::get<core::routing::Receipt>(message)));
 }
 
 core::routing::Request toRequest(const ScanRequest& msg) {

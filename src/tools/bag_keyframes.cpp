@@ -9,8 +9,8 @@
 #include <rosbag/view.h>
 #include <sensor_msgs/PointCloud2.h>
 
-#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/ros/conversions.h"
 
 namespace core = ccir_mapping::core;

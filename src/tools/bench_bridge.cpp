@@ -18,8 +18,8 @@
 
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "ccir_mapping/core/testing/link_proxy.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;

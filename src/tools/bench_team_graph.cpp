@@ -21,10 +21,10 @@
 #include <Eigen/Geometry>
 #include <boost/program_options.hpp>
 
-#include "ccir_mapping/core/testing/trajectory_error.h"
+#include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/preprocess/keyframe_selector.h"
 #include "ccir_mapping/core/simulation/mission.h"
-#include "ccir_mapping/core/backend/team_graph.h"
+#include "ccir_mapping/core/testing/trajectory_error.h"
 #include "command_line.h"
 
 namespace po = boost::program_options;
@@ -34,9 +34,9 @@ using ccir_mapping::core::Matrix6;
 using ccir_mapping::core::Pose3;
 using ccir_mapping::core::Stamp;
 using ccir_mapping::core::backend::BackendParams;
-using ccir_mapping::core::pose_graph::LoopClosureData;
 using ccir_mapping::core::backend::BackendSnapshot;
 using ccir_mapping::core::backend::TeamGraph;
+using ccir_mapping::core::pose_graph::LoopClosureData;
 namespace sim = ccir_mapping::core::simulation;
 
 namespace {

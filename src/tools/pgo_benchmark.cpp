@@ -11,8 +11,8 @@
 #include <boost/program_options.hpp>
 
 #include "ccir_mapping/core/pose_graph/g2o_io.h"
-#include "ccir_mapping/core/testing/outlier_injector.h"
 #include "ccir_mapping/core/pose_graph/pose_graph_optimizer.h"
+#include "ccir_mapping/core/testing/outlier_injector.h"
 #include "ccir_mapping/core/testing/trajectory_error.h"
 #include "command_line.h"
 #include "mrpt_reference.h"
@@ -99,8 +99,9 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
   if (o->g2o.empty() || !kernel || !mode || o->outliers.count < 0 ||
       (switch_function != "linear" && switch_function != "sigmoid")) {
     return tools::usageError(
-        "pgo_benchmark", "need --g2o FILE, --robust " + std::string(pose_graph::kRobustKernelChoices) +
-                             ", --outlier-mode " + std::string(testing::kOutlierModeChoices) +
+        "pgo_benchmark", "need --g2o FILE, --robust " +
+                             std::string(pose_graph::kRobustKernelChoices) + ", --outlier-mode " +
+                             std::string(testing::kOutlierModeChoices) +
                              ", --switch linear | sigmoid, --outliers >= 0 (see --help)");
   }
   o->outliers.mode = *mode;
@@ -205,11 +206,11 @@ void report(const Options& o, const Results& r) {
       jsonString(pose_graph::toString(o.params.kernel)).c_str(),
       jsonString(o.gt.empty() ? "outlier-free optimum" : "ground truth").c_str(), r.ate,
       r.outlier_free_ate, r.outlier_free_ate > 0 ? r.ate / r.outlier_free_ate : 0.0,
-      r.result.initial_cost, r.result.final_cost, pose_graph::PoseGraphOptimizer::plainCost(r.graph),
-      r.result.iterations, r.result.solve_s, r.result.usable ? "true" : "false",
-      r.optimum_result.solve_s, pose_graph::PoseGraphOptimizer::plainCost(r.optimum),
-      r.mrpt_json.c_str(), r.rejected, r.rejected_outliers, r.rejected_true,
-      r.inter_robot_rejected_true, precision, recall);
+      r.result.initial_cost, r.result.final_cost,
+      pose_graph::PoseGraphOptimizer::plainCost(r.graph), r.result.iterations, r.result.solve_s,
+      r.result.usable ? "true" : "false", r.optimum_result.solve_s,
+      pose_graph::PoseGraphOptimizer::plainCost(r.optimum), r.mrpt_json.c_str(), r.rejected,
+      r.rejected_outliers, r.rejected_true, r.inter_robot_rejected_true, precision, recall);
 }
 
 }  // namespace

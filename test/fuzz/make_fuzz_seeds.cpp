@@ -88,8 +88,7 @@ int main(int argc, char** argv) {
   // Scans: 40 points on a wall, as points and as a two-Gaussian mixture.
   std::vector<core::routing::ScanPoint> points;
   for (int i = 0; i < 40; ++i) points.push_back({float(i % 8), 3.0f, float(i / 8), 0, -1, 0, 9});
-  write(out / "scan_decoding" / "cloud",
-        scanInput(*core::routing::encodeScan(points), false, 40));
+  write(out / "scan_decoding" / "cloud", scanInput(*core::routing::encodeScan(points), false, 40));
   core::hgmm::Gaussian a, b;
   a.weight = b.weight = 0.5;
   a.mean << 1, 3, 1;

@@ -755,8 +755,8 @@ TEST(Conversions, UncertaintyFeaturesAndCorrespondences) {
   short_one.position_variance_m2.pop_back();
   EXPECT_FALSE(toVariances(short_one));
 
-  const core::place_recognition::KeyframeWords words{
-      "robot_a", 17, toStamp(header.stamp), "cafe01", {2, 5, 400}, 260};
+  const core::place_recognition::KeyframeWords words{"robot_a", 17,          toStamp(header.stamp),
+                                                     "cafe01",  {2, 5, 400}, 260};
   const KeyframeFeatures features = toKeyframeFeaturesMsg(header, words);
   EXPECT_EQ(features.header.stamp, ros::Time(3));
   EXPECT_EQ(features.robot, "robot_a");

@@ -17,8 +17,8 @@ TEST(RunnerMessageSizes, EveryOutboxMessageHasItsRosSerialisedSize) {
   std_msgs::Header sensor_header;
   sensor_header.frame_id = robot + "/velodyne";  // a keyframe's header, as the Preprocessor's
 
-  const core::place_recognition::KeyframeWords words{
-      robot, 7, 0, "0123456789abcdef", {1, 5, 9, 300}, 42};
+  const core::place_recognition::KeyframeWords words{robot,          7, 0, "0123456789abcdef",
+                                                     {1, 5, 9, 300}, 42};
   EXPECT_EQ(serializedBytes(TeamMessage(words)),
             serializationLength(conversions::toKeyframeFeaturesMsg(sensor_header, words)));
 
@@ -45,9 +45,8 @@ TEST(RunnerMessageSizes, EveryOutboxMessageHasItsRosSerialisedSize) {
   scan->robot = robot;
   scan->points.assign(1234, 0);
   EXPECT_EQ(serializedBytes(TeamMessage(std::shared_ptr<const core::routing::WireScan>(scan))),
-            serializationLength(conversions::toSharedScanMsg(core::routing::WireScan(*scan),
-                                                             sensor_header.frame_id,
-                                                             robot + "/odom")));
+            serializationLength(conversions::toSharedScanMsg(
+                core::routing::WireScan(*scan), sensor_header.frame_id, robot + "/odom")));
 }
 
 }  // namespace

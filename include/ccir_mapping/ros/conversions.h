@@ -112,10 +112,9 @@ std::optional<core::place_recognition::KeyframeCorrespondences> toKeyframeCorres
 
 /// What a Backend snapshot puts on tf at `stamp`: odom_frame in map_frame, and each teammate's
 /// map frame ("<peer>/map") whose transform is found.
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const core::backend::BackendSnapshot& snapshot,
-                                                      const std::string& map_frame,
-                                                      const std::string& odom_frame,
-                                                      const ros::Time& stamp);
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(
+    const core::backend::BackendSnapshot& snapshot, const std::string& map_frame,
+    const std::string& odom_frame, const ros::Time& stamp);
 
 /// Loop closures as lines between their keyframes, one LINE_LIST each: kept intra-robot ones
 /// green ("loops kept"), rejected red ("loops rejected"), inter-robot blue ("inter-robot
@@ -188,6 +187,9 @@ std::optional<std::string> toKeyframe(const SharedScan& scan, Keyframe* out);
 /// their fields (the broker checks their content).
 std::optional<std::string> toOffer(const ScanOffer& msg, core::routing::Offer* out);
 ScanOffer toOfferMsg(const core::routing::Offer& offer, const std::string& map_frame);
+/// The serialised size of a control message's ROS message (its offer in `map_frame`).
+std::size_t serializedSize(const core::routing::ControlMessage& message,
+                           const std::string& map_frame);
 core::routing::Request toRequest(const ScanRequest& msg);
 ScanRequest toRequestMsg(const core::routing::Request& request);
 core::routing::Receipt toReceipt(const ScanReceipt& msg);

@@ -14,8 +14,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "ccir_mapping/core/pose_graph/pose_graph_residuals.h"
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/pose_graph/pose_graph_residuals.h"
 
 namespace ccir_mapping::core::alignment {
 namespace {

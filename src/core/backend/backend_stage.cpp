@@ -17,8 +17,8 @@ BackendStage::BackendStage(const std::string& robot, const BackendParams& params
   worker.refused = [this](TeamGraphWorker::Refusal why, const std::string& what) {
     if (!hooks_.refused) return;
     const auto report = TeamGraphWorker::reportOf(why);
-    hooks_.refused({{report.flow, "dropping " + what + " (from " + report.flow + ")"},
-                    report.dropped});
+    hooks_.refused(
+        {{report.flow, "dropping " + what + " (from " + report.flow + ")"}, report.dropped});
   };
   worker.unjournaled = hooks_.unjournaled;
   worker_ = std::make_unique<TeamGraphWorker>(std::make_unique<TeamGraph>(robot, params),
@@ -41,7 +41,16 @@ std::optional<std::vector<std::string>> BackendStage::save(const std::string& di
   return files;
 }
 
-void BackendStage::optimized(const BackendSnapshot& snapshot, const TeamGraph& graph) const {
+BackendStage::Latest BackendStage::latest() const {
+  std::lock_guard<std::mutex> lock(latest_mutex_);
+  return latest_;
+}
+
+void BackendStage::optimized(const BackendSnapshot& snapshot, const TeamGraph& graph) {
+  {
+    std::lock_guard<std::mutex> lock(latest_mutex_);
+    latest_ = {snapshot.solve_s, snapshot.loops};
+  }
   if (!hooks_.optimized) return;
   Output out{snapshot, std::nullopt};
   if (!snapshot.ids.empty() && hooks_.wants_uncertainty()) {

@@ -11,8 +11,8 @@
 
 #include <Eigen/Geometry>
 
-#include "ccir_mapping/core/pose_graph/g2o_io.h"
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/pose_graph/g2o_io.h"
 
 namespace ccir_mapping::core::backend {
 

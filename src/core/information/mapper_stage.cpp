@@ -28,8 +28,8 @@ void MapperStage::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const 
 }
 
 std::optional<std::string> MapperStage::addPeer(const std::string& robot, KeyframeId id,
-                                             std::shared_ptr<const Cloud> cloud,
-                                             const Pose3& peer_pose) {
+                                                std::shared_ptr<const Cloud> cloud,
+                                                const Pose3& peer_pose) {
   if (robot == robot_) return "it is this robot's own";
   std::lock_guard<std::mutex> lock(mutex_);
   if (keyframes_.holdsPeer(robot, id)) return "it is in the map already";
@@ -44,7 +44,7 @@ void MapperStage::setTeamTransform(const std::string& robot, const Pose3& map_fr
 }
 
 void MapperStage::setPeerPoses(const std::string& robot,
-                            const std::vector<std::pair<KeyframeId, Pose3>>& poses) {
+                               const std::vector<std::pair<KeyframeId, Pose3>>& poses) {
   if (robot == robot_) return;
   std::lock_guard<std::mutex> lock(mutex_);
   insert(keyframes_.setPeerPoses(robot, poses));

@@ -32,12 +32,13 @@ MatcherStage::Output MatcherStage::describeOwn(KeyframeId id, Stamp stamp, const
   *described =
       measured("describe", [&] { return matcher_.describeOwn(id, stamp, cloud, odom_pose); });
   Output out;
-  out.features = KeyframeWords{robot_,
-                               id,
-                               stamp,
-                               vocabularyHash(),
-                               described->words,
-                               static_cast<std::uint32_t>(described->scan.features.descriptors.size())};
+  out.features =
+      KeyframeWords{robot_,
+                    id,
+                    stamp,
+                    vocabularyHash(),
+                    described->words,
+                    static_cast<std::uint32_t>(described->scan.features.descriptors.size())};
   for (const auto& c : matcher_.teammateCorrespondences(described->words)) {
     out.correspondences.push_back({c.robot, c.keyframe, {{id, c.count}}});
   }
@@ -59,9 +60,9 @@ MatcherStage::Output MatcherStage::onTeammateWords(const KeyframeWords& words) {
   auto problem = matcher_.wordsProblem(words.vocabulary_hash, words.words);
   if (words.robot == robot_) problem = {"own", "from this robot itself (bridge loop?)"};
   if (problem) {
-    return refused("features (" + problem->kind + ")",
-                   "refusing features of " + words.robot + " keyframe " +
-                       std::to_string(words.id) + ": " + problem->text);
+    return refused("features (" + problem->kind + ")", "refusing features of " + words.robot +
+                                                           " keyframe " + std::to_string(words.id) +
+                                                           ": " + problem->text);
   }
   Output out;
   out.correspondences.push_back({words.robot, words.id, matcher_.correspondences(words.words)});
@@ -71,8 +72,7 @@ MatcherStage::Output MatcherStage::onTeammateWords(const KeyframeWords& words) {
 
 MatcherStage::Output MatcherStage::onTeammateScan(const std::string& robot, KeyframeId id,
                                                   Stamp stamp, const Cloud& cloud,
-                                                  const Pose3& odom_pose,
-                                                  bool drawn_from_mixture) {
+                                                  const Pose3& odom_pose, bool drawn_from_mixture) {
   if (robot == robot_) {
     return refused("scans (own)",
                    "ignoring scans from this robot itself on the inbox (bridge loop?)");

@@ -14,8 +14,8 @@
 #include <ceres/solver.h>
 #include <Eigen/Geometry>
 
-#include "ccir_mapping/core/pose_graph/dcs_loss.h"
 #include "ccir_mapping/core/common/param_check.h"
+#include "ccir_mapping/core/pose_graph/dcs_loss.h"
 
 namespace ccir_mapping::core::pose_graph {
 namespace {

@@ -73,7 +73,7 @@ PreprocessorStage::Arrival PreprocessorStage::arrive(Stamp stamp, std::size_t po
 }
 
 PreprocessorStage::Result PreprocessorStage::process(Stamp stamp, const Pose3& sensor_pose,
-                                             const InputCloud& scan) {
+                                                     const InputCloud& scan) {
   Result result;
   // Enough usable points before the scan may take a keyframe's place.
   result.usable_points = preprocessor_.usablePoints(scan, &result.stats);

@@ -1,9 +1,9 @@
 #include "ccir_mapping/core/runner/keyframe_feed.h"
 
 #include "ccir_mapping/core/common/cpu_time.h"
-#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 #include "ccir_mapping/core/preprocess/lidar_scan_cloud.h"
 #include "ccir_mapping/core/preprocess/odometry_buffer.h"
+#include "ccir_mapping/core/preprocess/preprocessor_stage.h"
 
 namespace ccir_mapping::core::runner {
 

@@ -67,9 +67,8 @@ RobotPipeline::RobotPipeline(std::string name, std::vector<std::string> peers,
            {[this](const char* stage, const std::function<void()>& work) { measured(stage, work); },
             {}}),
       broker_(name_, std::move(peers), params.broker, params.mapper,
-              [](const Broker::ControlMessage& m) {
-                return std::visit([](const auto& c) { return serializedBytes(TeamMessage(c)); },
-                                  m);
+              [](const routing::ControlMessage& m) {
+                return std::visit([](const auto& c) { return serializedBytes(TeamMessage(c)); }, m);
               }),
       offers_{params.broker.offer_period_s, start_s + phase * params.broker.offer_period_s},
       optimisation_{params.backend.optimize_period_s,

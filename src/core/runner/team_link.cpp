@@ -2,8 +2,7 @@
 
 namespace ccir_mapping::core::runner {
 
-TeamLink::TeamLink(const transport::BridgeParams& bridge,
-                   const testing::LinkEmulatorParams& radio,
+TeamLink::TeamLink(const transport::BridgeParams& bridge, const testing::LinkEmulatorParams& radio,
                    std::shared_ptr<transport::TokenBucket> total, double now_s)
     : scheduler_(bridge.budget_bytes_per_s, static_cast<std::size_t>(bridge.burst_bytes),
                  static_cast<std::size_t>(bridge.fragment_bytes), now_s),

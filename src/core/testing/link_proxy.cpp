@@ -171,7 +171,7 @@ LinkProxy::LinkProxy(const LinkProxyParams& params) : impl_(std::make_unique<Imp
   m.params = params;
   m.seed = params.link.seed;
   const auto ec = transport::listen(m.acceptor, {asio::ip::make_address("127.0.0.1"),
-                                      static_cast<unsigned short>(params.listen_port)});
+                                                 static_cast<unsigned short>(params.listen_port)});
   if (ec) {
     throw std::runtime_error("LinkProxy: cannot listen on port " +
                              std::to_string(params.listen_port) + ": " + ec.message());

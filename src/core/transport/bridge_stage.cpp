@@ -39,8 +39,8 @@ struct BridgeStage::Impl {
   std::thread thread;
 };
 
-BridgeStage::BridgeStage(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-               LogHandler on_log, Clock clock) {
+BridgeStage::BridgeStage(const BridgeParams& params, const std::string& own_robot,
+                         InboxHandler on_message, LogHandler on_log, Clock clock) {
   const auto errors = params.validate(own_robot);
   if (!errors.empty()) throw std::invalid_argument("Bridge: " + errors.front());
   impl_ = std::make_unique<Impl>(params, own_robot, std::move(on_message), std::move(on_log),
@@ -88,7 +88,7 @@ void BridgeStage::start() {
 }
 
 bool BridgeStage::publish(const TopicInfo& topic, std::vector<std::uint8_t> message,
-                     const std::string& only_peer) {
+                          const std::string& only_peer) {
   Impl& m = *impl_;
   auto& links = m.context.links;
   std::lock_guard<std::mutex> lock(m.context.mutex);

@@ -19,12 +19,12 @@
 
 #include <Eigen/Geometry>
 
-#include "ccir_mapping/core/testing/synthetic_candidates.h"
-#include "ccir_mapping/core/pose_graph/g2o_io.h"
 #include "ccir_mapping/core/backend/backend_stage.h"
 #include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/backend/team_graph_journal.h"
 #include "ccir_mapping/core/backend/team_graph_worker.h"
+#include "ccir_mapping/core/pose_graph/g2o_io.h"
+#include "ccir_mapping/core/testing/synthetic_candidates.h"
 
 namespace ccir_mapping::core::backend {
 namespace {
@@ -953,7 +953,6 @@ TEST(TeamGraphWorker, RefusalsAreDroppedOnTheirTopicsFlowOrOnlyCountedWhenNothin
   }
 }
 
-
 TEST(BackendStage, EachOptimisationComesOutWithTheUncertaintyWhenAskedAndRefusalsAsNotices) {
   std::vector<BackendStage::Output> outputs;
   std::vector<BackendStage::Refusal> refusals;
@@ -1011,8 +1010,8 @@ TEST(BackendStage, EachOptimisationComesOutWithTheUncertaintyWhenAskedAndRefusal
 }
 
 TEST(BackendStage, ResumesWhatItsJournalKeptAndSavesItsFiles) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("ccir_backend_stage_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("ccir_backend_stage_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   const auto drive = [](BackendStage& stage, KeyframeId from, KeyframeId to) {
     for (KeyframeId id = from; id < to; ++id) {

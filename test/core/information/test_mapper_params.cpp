@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "ccir_mapping/core/information/mapper_params.h"
 #include "../param_errors.h"
+#include "ccir_mapping/core/information/mapper_params.h"
 
 namespace ccir_mapping::core::information {
 namespace {

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "ccir_mapping/core/place_recognition/matcher_params.h"
 #include "../param_errors.h"
+#include "ccir_mapping/core/place_recognition/matcher_params.h"
 
 namespace ccir_mapping::core::place_recognition {
 namespace {
@@ -19,8 +19,7 @@ TEST(MatcherParams, NamesEachInvalidValueAndParsesTheMethod) {
   p.verification.min_inliers = 2;  // nested: one struct, one default, checked once
   EXPECT_TRUE(mentions(p.validate(), "min_correspondences = -1"));
   EXPECT_TRUE(mentions(p.validate(), "min_inliers = 2"));
-  EXPECT_EQ(parseMatchMethod("histogram"),
-            MatchMethod::kHistogram);
+  EXPECT_EQ(parseMatchMethod("histogram"), MatchMethod::kHistogram);
   EXPECT_FALSE(parseMatchMethod("FABMAP").has_value());
 }
 

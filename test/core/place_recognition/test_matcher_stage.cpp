@@ -28,8 +28,8 @@ class Scans {
   Cloud at(double t, std::uint64_t noise_seed) const {
     const Pose3 pose = poseAt(t);
     std::mt19937_64 rng(noise_seed);
-    const LidarScan scan =
-        mission_.lidar().scan(mission_.world(), 0, [&](double) { return pose; }, rng);
+    const LidarScan scan = mission_.lidar().scan(
+        mission_.world(), 0, [&](double) { return pose; }, rng);
     const preprocess::ScanPreprocessor preprocessor(preprocess::PreprocessorParams{});
     return *preprocessor.process(preprocess::toCloud(scan), upInFrame(pose));
   }
@@ -64,8 +64,8 @@ class MatcherStageTest : public ::testing::Test {
                            std::uint64_t seed, MatcherStage::Output* described = nullptr) {
     stage.addOwnTravel(1.0);
     DescribedKeyframe keyframe;
-    auto first = stage.describeOwn(id, fromSeconds(stamp_s), scans_->at(t, seed),
-                                   scans_->poseAt(t), &keyframe);
+    auto first = stage.describeOwn(id, fromSeconds(stamp_s), scans_->at(t, seed), scans_->poseAt(t),
+                                   &keyframe);
     if (described) *described = first;
     return stage.matchOwn(std::move(keyframe));
   }
@@ -112,9 +112,9 @@ TEST_F(MatcherStageTest, TeammatesWordSetsGiveCorrespondencesBothWays) {
   // robot_b's word set of the same place: c_k of own keyframe 0 for it.
   DescribedKeyframe theirs;
   auto b = stage("robot_b");
-  const auto words = *b.describeOwn(7, fromSeconds(1.0), scans_->at(2.0, 5), scans_->poseAt(2.0),
-                                    &theirs)
-                          .features;
+  const auto words =
+      *b.describeOwn(7, fromSeconds(1.0), scans_->at(2.0, 5), scans_->poseAt(2.0), &theirs)
+           .features;
   const auto out = matcher.onTeammateWords(words);
   EXPECT_TRUE(out.refused.empty());
   ASSERT_EQ(out.correspondences.size(), 1U);
@@ -137,8 +137,8 @@ TEST_F(MatcherStageTest, TeammatesScansCloseInterRobotLoopsEitherWayRound) {
   own(matcher, 0, 0.0, 2.0, 1);
   // robot_b scanned the first place: a closure from the own place, with robot_b's pose.
   const Pose3 theirs(Eigen::Translation3d(-3.0, 1.0, 0.0));
-  auto out = matcher.onTeammateScan("robot_b", 40, fromSeconds(2.0), scans_->at(2.0, 7), theirs,
-                                    false);
+  auto out =
+      matcher.onTeammateScan("robot_b", 40, fromSeconds(2.0), scans_->at(2.0, 7), theirs, false);
   ASSERT_EQ(out.loop_closures.size(), 1U);
   EXPECT_EQ(out.loop_closures.front().robot_from, "robot_a");
   EXPECT_EQ(out.loop_closures.front().keyframe_from, 0U);
@@ -148,8 +148,7 @@ TEST_F(MatcherStageTest, TeammatesScansCloseInterRobotLoopsEitherWayRound) {
   EXPECT_TRUE(out.loop_closures.front().odom_pose_to->isApprox(theirs));
   // robot_b scanned the second place before this robot got there: kept, then found by the own
   // keyframe, which is "from".
-  out = matcher.onTeammateScan("robot_b", 41, fromSeconds(3.0), scans_->at(12.0, 8), theirs,
-                               false);
+  out = matcher.onTeammateScan("robot_b", 41, fromSeconds(3.0), scans_->at(12.0, 8), theirs, false);
   EXPECT_TRUE(out.loop_closures.empty());
   EXPECT_EQ(matcher.matcher().keptScans(), 2U);
   out = own(matcher, 1, 10.0, 12.0, 9);

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "ccir_mapping/core/preprocess/preprocessor_params.h"
 #include "../param_errors.h"
+#include "ccir_mapping/core/preprocess/preprocessor_params.h"
 
 namespace ccir_mapping::core::preprocess {
 namespace {

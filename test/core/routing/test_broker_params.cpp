@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "ccir_mapping/core/routing/broker_params.h"
 #include "../param_errors.h"
+#include "ccir_mapping/core/routing/broker_params.h"
 
 namespace ccir_mapping::core::routing {
 namespace {

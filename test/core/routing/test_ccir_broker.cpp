@@ -610,11 +610,10 @@ TEST(BrokerStage, EachStepSaysWhatToSendAndWhatItRefused) {
             "refusing a receipt from 'robot_x' for 'robot_a'");
 }
 
-
 TEST(BrokerStage, CountsEachControlMessageAtTheSizeTheWireGivesIt) {
   using Stage = BrokerStage<std::string>;
   std::vector<std::string> sized;
-  const auto bytes = [&](const Stage::ControlMessage& m) -> std::size_t {
+  const auto bytes = [&](const ControlMessage& m) -> std::size_t {
     sized.push_back(std::visit(
         [](const auto& c) -> std::string {
           using T = std::decay_t<decltype(c)>;

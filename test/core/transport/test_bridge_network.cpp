@@ -17,8 +17,8 @@
 
 #include <boost/asio.hpp>
 
-#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "ccir_mapping/core/testing/link_proxy.h"
+#include "ccir_mapping/core/transport/bridge_stage.h"
 #include "numbered_bytes.h"
 
 namespace ccir_mapping::core::transport {

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "ccir_mapping/core/transport/bridge_params.h"
 #include "../param_errors.h"
+#include "ccir_mapping/core/transport/bridge_params.h"
 
 namespace ccir_mapping::core::transport {
 namespace {

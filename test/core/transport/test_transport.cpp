@@ -13,9 +13,9 @@
 #include <tuple>
 
 #include "ccir_mapping/core/common/compression.h"
+#include "ccir_mapping/core/testing/link_emulator.h"
 #include "ccir_mapping/core/transport/frame_codec.h"
 #include "ccir_mapping/core/transport/inbox_publishers.h"
-#include "ccir_mapping/core/testing/link_emulator.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 #include "ccir_mapping/core/transport/message_fragments.h"
 #include "ccir_mapping/core/transport/peer_session.h"

@@ -40,7 +40,7 @@ import xml.etree.ElementTree as ET
 import roslib.packages
 import rospy
 
-from rostest_processes import Processes, descendants, free_port
+from ccir_mapping.rostest_processes import Processes, descendants, free_port
 
 BUDGET = 150000.0
 BURST = 131072
@@ -111,7 +111,7 @@ class BridgeMasters(Processes, unittest.TestCase):
                 self.check_call(prefix + ["ip", "link", "set", dev, "up"])
                 # burst must be at least the MTU (1500), or TCP stalls.
                 self.check_call(prefix + ["tc", "qdisc", "add", "dev", dev, "root", "tbf", "rate",
-                                   "2mbit", "burst", "32kb", "latency", "200ms"])
+                                          "2mbit", "burst", "32kb", "latency", "200ms"])
             for robot, prefix, address in zip(self.robots, (a, b), ("10.200.0.1", "10.200.0.2")):
                 prefixes[robot], hosts[robot] = prefix, address
         except (RuntimeError, subprocess.SubprocessError, OSError) as e:
@@ -192,11 +192,12 @@ class BridgeMasters(Processes, unittest.TestCase):
                                         "robot:=" + robot, "config:=" + config],
                        masters[robot])
             self.spawn("traffic_" + robot,
-                       prefix[robot] + [executable("bridge_traffic.py"), "--robot", robot, "--peers",
-                        ",".join(r for r in self.robots if r != robot), "--start-at",
-                        str(at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
-                        "--cloud-bytes", str(self.cloud_bytes), "--settle-s", str(settle_s),
-                        "--out", os.path.join(self.dir, "traffic_%s.json" % robot)],
+                       prefix[robot] + [
+                           executable("bridge_traffic.py"), "--robot", robot, "--peers",
+                           ",".join(r for r in self.robots if r != robot), "--start-at",
+                           str(at), "--duration-s", str(self.duration_s), "--cloud-every", "3",
+                           "--cloud-bytes", str(self.cloud_bytes), "--settle-s", str(settle_s),
+                           "--out", os.path.join(self.dir, "traffic_%s.json" % robot)],
                        masters[robot])
             return self.processes[-1]
 
@@ -247,7 +248,8 @@ class BridgeMasters(Processes, unittest.TestCase):
                 process.wait(
                     timeout=last_start - time.time() + self.duration_s + 60 + self.outage_s)
             except subprocess.TimeoutExpired:
-                self.fail("traffic of %s did not finish:\n%s" % (robot, self.log_tail("traffic_" + robot)))
+                self.fail("traffic of %s did not finish:\n%s"
+                          % (robot, self.log_tail("traffic_" + robot)))
             self.assertEqual(process.returncode, 0, "traffic of %s failed:\n%s\nbridge:\n%s" % (
                 robot, self.log_tail("traffic_" + robot), self.log_tail("bridge_" + robot)))
         for _, process in proxies.values():
@@ -359,7 +361,8 @@ class BridgeMasters(Processes, unittest.TestCase):
             t0 = start_at - proxy_started + 4.0
             t1 = start_at - proxy_started + CUT_AFTER_S - 0.5
             used = sum(b for t, b in chunks if t0 <= t < t1) / (t1 - t0)
-            print("%s: %.0f bytes/s on the wire while saturated (budget %.0f)" % (robot, used, BUDGET))
+            print("%s: %.0f bytes/s on the wire while saturated (budget %.0f)"
+                  % (robot, used, BUDGET))
             self.assertGreater(used, 0.85 * BUDGET, robot)
 
 

@@ -17,7 +17,7 @@ import rosgraph
 import rospy
 import rosunit
 
-from rostest_processes import Processes, free_port
+from ccir_mapping.rostest_processes import Processes, free_port
 
 TEAM_KEY = "replay-rate-test-team-key"
 # Below what every keyframe in wire form needs (~60 KB a second), so the link is saturated.
@@ -76,8 +76,9 @@ class ReplayRate(Processes, unittest.TestCase):
         broker_csv = os.path.join(run, "broker.csv")
         self.spawn("echo_link", ["rostopic", "echo", "-p", "/link_stats"], a, out=link_csv)
         self.spawn("echo_broker", ["rostopic", "echo", "-p", "/broker_stats"], a, out=broker_csv)
-        self.wait_for(lambda: any(r.get("field.connected") in ("1", "True") for r in rows(link_csv)), 90,
-                      "robot_a's link to robot_b came up")
+        self.wait_for(
+            lambda: any(r.get("field.connected") in ("1", "True") for r in rows(link_csv)), 90,
+            "robot_a's link to robot_b came up")
         player = self.spawn("play", ["rosbag", "play", "--clock", "--quiet",
                                      "--wait-for-subscribers", "-r", str(rate), self.bag,
                                      "--topics", "/velodyne_points", "/odom", "/tf", "/tf_static"],

@@ -1,6 +1,6 @@
-// A nodelet with an invalid parameter (or a Matcher whose model directory does not exist) logs
-// FATAL naming it, reports ERROR on diagnostics and stays inert; the valid nodelets in the same
-// manager keep running.
+// A nodelet with an invalid parameter (or a Matcher whose model directory does not exist, a
+// Broker without the Bridge or the Mapper it names) logs FATAL naming it, reports ERROR on
+// diagnostics and stays inert; the valid nodelets in the same manager keep running.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -50,10 +50,14 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   ASSERT_TRUE(waitFor([&] { return ccir_mapping::testing::linkedToAllPublishers(log_sub); }, 30.0))
       << "not linked to every /rosout publisher (" << log_sub.getNumPublishers() << " of "
       << ccir_mapping::testing::registeredPublishers("/rosout") << ")";
-  const std::pair<const char*, const char*> nodelets[] = {
-      {"preprocessor", "Preprocessor"}, {"bridge", "Bridge"},
-      {"matcher", "Matcher"},           {"matcher_without_model", "Matcher"},
-      {"backend_resuming", "Backend"},  {"backend", "Backend"}};
+  const std::pair<const char*, const char*> nodelets[] = {{"preprocessor", "Preprocessor"},
+                                                          {"bridge", "Bridge"},
+                                                          {"matcher", "Matcher"},
+                                                          {"matcher_without_model", "Matcher"},
+                                                          {"backend_resuming", "Backend"},
+                                                          {"backend", "Backend"},
+                                                          {"broker_without_bridge", "Broker"},
+                                                          {"broker", "Broker"}};
   for (const auto& [name, type] : nodelets) {
     nodelet::NodeletLoad load;
     load.request.name = std::string("/") + name;
@@ -83,12 +87,19 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
       30.0));
   EXPECT_TRUE(waitFor(
       [&] { return logged(rosgraph_msgs::Log::ERROR, "(save_dir): not journaled"); }, 30.0));
+  // The Broker's explicit inputs: a Bridge that does not exist stops it at once; a Mapper that
+  // never loads, once it has had 30 s to.
+  EXPECT_TRUE(waitFor(
+      [&] { return fatal("bridge: no nodelet named /nowhere (it has no parameters)"); }, 30.0));
+  EXPECT_TRUE(
+      waitFor([&] { return fatal("mapper: no Mapper named /mapper runs in this manager"); }, 75.0));
   // Diagnostics say why the nodelets are inert (published a second after onInit returned).
   ASSERT_TRUE(waitFor(
       [&] {
         return status.count("preprocessor: flow") && status.count("bridge: flow") &&
                status.count("matcher: flow") && status.count("matcher_without_model: flow") &&
-               status.count("backend_resuming: flow") && status.count("backend: flow");
+               status.count("backend_resuming: flow") && status.count("backend: flow") &&
+               status.count("broker_without_bridge: flow") && status.count("broker: flow");
       },
       30.0))
       << [&] {
@@ -102,6 +113,11 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   EXPECT_EQ(status["matcher_without_model: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["backend_resuming: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(status["backend: flow"].level, diagnostic_msgs::DiagnosticStatus::OK);
+  EXPECT_EQ(status["broker_without_bridge: flow"].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_TRUE(waitFor(
+      [&] { return status["broker: flow"].level == diagnostic_msgs::DiagnosticStatus::ERROR; },
+      10.0))
+      << "the Broker without its Mapper stops";
   ASSERT_FALSE(status["preprocessor: flow"].values.empty());
   EXPECT_EQ(status["preprocessor: flow"].values[0].value,
             "voxel_leaf_m = -1 is out of range: allowed [0.01, 5]");

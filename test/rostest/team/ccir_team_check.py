@@ -20,7 +20,7 @@ import numpy
 import rospy
 import rosunit
 
-from rostest_processes import Processes
+from ccir_mapping.rostest_processes import Processes
 
 BUDGET = 150000.0
 BURST = 131072
@@ -103,7 +103,8 @@ class CcirTeam(Processes, unittest.TestCase):
                 p = peers[other]
                 refused = dict(zip(p["refused_reasons"] or [], p["refused_counts"] or []))
                 print("%s -> %s: offered %d, requested of it %d, sent %d (%d B); received %d; "
-                      "refused %s" % (robot, other, p["scans_offered"], p["scans_requested_by_peer"],
+                      "refused %s" % (robot, other, p["scans_offered"],
+                                      p["scans_requested_by_peer"],
                                       p["scans_sent"], p["scan_bytes_sent"], p["scans_received"],
                                       refused))
                 # Requested <= offered; sent <= requested.
@@ -147,7 +148,8 @@ class CcirTeam(Processes, unittest.TestCase):
             self.assertGreater(len(own), 0, robot)
             self.assertLessEqual(len(own), trajectory.shape[0], robot)
             print("%s saved: %d keyframes, %d of them in the team graph, map %d bytes" % (
-                robot, trajectory.shape[0], len(own), os.path.getsize(os.path.join(saved, "map.bt"))))
+                robot, trajectory.shape[0], len(own),
+                os.path.getsize(os.path.join(saved, "map.bt"))))
 
     def check_team_transforms(self, run, robots):
         """What the Backends made of the scans CCIR delivered: inter-robot loop closures on them,
@@ -161,7 +163,8 @@ class CcirTeam(Processes, unittest.TestCase):
             # rostopic's warnings come first, then the header.
             header = next((i for i, line in enumerate(lines) if line.startswith("%time")), None)
             rows = [] if header is None else [
-                r for r in csv.DictReader(lines[header:]) if None not in r and None not in r.values()]
+                r for r in csv.DictReader(lines[header:])
+                if None not in r and None not in r.values()]
             last = {r["field.peer"]: r for r in rows}
             for peer, r in sorted(last.items()):
                 print("%s knows %s: valid %s, %s of %s closures" % (

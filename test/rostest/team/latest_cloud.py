@@ -2,16 +2,13 @@
 """Writes the x y z of the next PointCloud2 on a topic of the master in ROS_MASTER_URI to a .npy
 file, then exits: how a rostest that runs robots on masters of their own reads a cloud.
   latest_cloud.py TOPIC OUT.npy [TIMEOUT_S]      exit 0 written, 1 none within the timeout"""
-import os
 import sys
 
 import numpy as np
 import rospy
 from sensor_msgs.msg import PointCloud2
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..",
-                                "scripts", "lib"))
-from clouds import xyz  # noqa: E402
+from ccir_mapping.clouds import xyz
 
 
 def main():

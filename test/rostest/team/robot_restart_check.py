@@ -17,7 +17,7 @@ import unittest
 import rospy
 import rosunit
 
-from rostest_processes import Processes, descendants
+from ccir_mapping.rostest_processes import Processes, descendants
 
 ROBOTS = ["robot_a", "robot_b"]
 HALF_S = 10  # of the fixture's 20 s: robot_b's crash

@@ -13,17 +13,18 @@ import subprocess
 import tempfile
 import unittest
 
+import rospkg
 import rospy
 import rosunit
 import yaml
 
-from rostest_processes import Processes
+from ccir_mapping.rostest_processes import Processes
 
 ROBOTS = ["robot_a", "robot_b", "robot_c"]
 EVERY_N = 2
 RATE = "0.3"  # three pipelines on a slow two-core machine lose no scan
 BYTES_WITHIN = 0.10
-CONFIG = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "config",
+CONFIG = os.path.join(rospkg.RosPack().get_path("ccir_mapping"), "config",
                       "robot.yaml")  # what launch/robot.launch loads
 
 

@@ -15,7 +15,6 @@ import csv
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import unittest
 
@@ -26,11 +25,9 @@ import rospy
 import rosunit
 import yaml
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..",
-                                "scripts", "lib"))
-from clouds import xyz  # noqa: E402
-from demo_summary import matrix, start_pose  # noqa: E402
-from rostest_processes import Processes
+from ccir_mapping.clouds import xyz
+from ccir_mapping.demo_summary import matrix, start_pose
+from ccir_mapping.rostest_processes import Processes
 
 ROBOTS = ["robot_a", "robot_b"]
 # The odometry each pipeline is fed (see above).

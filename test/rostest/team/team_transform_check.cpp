@@ -25,8 +25,8 @@
 #include "ccir_mapping/Keyframe.h"
 #include "ccir_mapping/LoopClosure.h"
 #include "ccir_mapping/TeamTransform.h"
-#include "ccir_mapping/core/testing/synthetic_candidates.h"
 #include "ccir_mapping/core/pose_graph/g2o_io.h"
+#include "ccir_mapping/core/testing/synthetic_candidates.h"
 #include "ccir_mapping/ros/conversions.h"
 #include "wait_for.h"
 

@@ -84,7 +84,8 @@ class OwnBag(unittest.TestCase):
             content = f.read()
         self.assertTrue(content.startswith(b"# Octomap OcTree binary file"), content[:80])
         self.assertIn(b"\nres 0.1\n", content[:400])
-        self.assertGreater(len(content), 10000, "a map of one VLP-16 scan holds thousands of voxels")
+        self.assertGreater(len(content), 10000,
+                           "a map of one VLP-16 scan holds thousands of voxels")
 
 
 if __name__ == "__main__":

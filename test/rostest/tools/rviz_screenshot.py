@@ -25,8 +25,9 @@ FRAME = ROBOT + "/map"
 
 def screenshot(display):
     """The root window as an H x W x 3 array, or None."""
-    grab = subprocess.run(["import", "-display", display, "-window", "root", "-depth", "8", "ppm:-"],
-                          capture_output=True, timeout=20)
+    grab = subprocess.run(
+        ["import", "-display", display, "-window", "root", "-depth", "8", "ppm:-"],
+        capture_output=True, timeout=20)
     if grab.returncode != 0:
         return None
     data = grab.stdout

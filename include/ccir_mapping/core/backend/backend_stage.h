@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -72,16 +73,24 @@ class BackendStage {
   void addTeammateLoop(const pose_graph::LoopClosureData& loop) { worker_->addTeammateLoop(loop); }
   /// Optimises if anything arrived since the last optimisation.
   void tick() { worker_->tick(); }
+  /// The newest optimisation's figures, for diagnostics (from any thread).
+  struct Latest {
+    double solve_s = 0.0;
+    BackendSnapshot::LoopCounts loops;
+  };
+  Latest latest() const;
   /// Writes the graph's files (TeamGraph::save) to DIR once the optimisation under way is done;
   /// nullopt when the worker stopped first. Throws std::runtime_error naming what it could not
   /// write.
   std::optional<std::vector<std::string>> save(const std::string& dir);
 
  private:
-  void optimized(const BackendSnapshot& snapshot, const TeamGraph& graph) const;
+  void optimized(const BackendSnapshot& snapshot, const TeamGraph& graph);
 
   const std::string robot_;
   Hooks hooks_;
+  mutable std::mutex latest_mutex_;
+  Latest latest_;
   std::optional<TeamGraphJournal> journal_;  // outlives the worker that writes it
   std::unique_ptr<TeamGraphWorker> worker_;
 };

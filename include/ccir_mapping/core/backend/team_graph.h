@@ -28,10 +28,10 @@
 
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/backend/backend_params.h"
-#include "ccir_mapping/core/pose_graph/loop_closure.h"
-#include "ccir_mapping/core/pose_graph/pose_graph_optimizer.h"
 #include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/tum_trajectory.h"
+#include "ccir_mapping/core/pose_graph/loop_closure.h"
+#include "ccir_mapping/core/pose_graph/pose_graph_optimizer.h"
 
 namespace ccir_mapping::core::backend {
 
@@ -128,7 +128,7 @@ class TeamGraph {
   /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
   /// `robots`; the index is the keyframe id), and each edge's switch value (1 for odometry).
   pose_graph::PoseGraph exportGraph(std::vector<double>* switch_values,
-                                 std::vector<std::string>* robots) const;
+                                    std::vector<std::string>* robots) const;
   /// exportGraph() written as g2o (switchable loop closures with their values), preceded by a
   /// comment naming each robot's letter. Throws std::runtime_error when it cannot write.
   void saveG2o(const std::string& path) const;
@@ -174,8 +174,8 @@ class TeamGraph {
   static LoopKey keyOf(const pose_graph::LoopClosureData& loop);
   std::set<LoopKey> loop_keys_;
   std::vector<double> last_weights_;
-  pose_graph::PoseGraph last_graph_;   // the whole graph of the last optimisation
-  std::size_t last_own_count_ = 0;  // own keyframes (its first nodes) in last_graph_
+  pose_graph::PoseGraph last_graph_;  // the whole graph of the last optimisation
+  std::size_t last_own_count_ = 0;    // own keyframes (its first nodes) in last_graph_
   std::vector<std::pair<std::string, KeyframeId>> last_nodes_;  // the keyframe of each node
 
   /// Index of own keyframe `id` in the graph, or -1.

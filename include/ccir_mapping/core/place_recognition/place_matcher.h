@@ -16,7 +16,6 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-#include "ccir_mapping/core/pose_graph/loop_closure.h"
 #include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/features/feature_extractor.h"
@@ -25,6 +24,7 @@
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
 #include "ccir_mapping/core/place_recognition/matcher_params.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
+#include "ccir_mapping/core/pose_graph/loop_closure.h"
 #include "ccir_mapping/core/registration/scan_verifier.h"
 
 namespace ccir_mapping::core::place_recognition {
@@ -82,8 +82,8 @@ class PlaceMatcher {
   /// is a place that had one; an inter-robot one carries the teammate's keyframe's odometry pose
   /// (odom_pose_to) when known, so that a third robot can place it.
   pose_graph::LoopClosureData loopClosure(const std::string& self, const MatchCandidate& match,
-                                       const std::string& query_robot, KeyframeId query,
-                                       const std::optional<Pose3>& query_odom_pose = {}) const;
+                                          const std::string& query_robot, KeyframeId query,
+                                          const std::optional<Pose3>& query_odom_pose = {}) const;
 
   /// Features (with the model's settings), words and verification cloud of a keyframe cloud in
   /// its sensor frame; `up` is gravity's opposite in that frame.

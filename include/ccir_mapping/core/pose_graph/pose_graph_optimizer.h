@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "ccir_mapping/core/pose_graph/robust_kernel.h"
 #include "ccir_mapping/core/pose_graph/pose_graph.h"
 #include "ccir_mapping/core/pose_graph/pose_graph_residuals.h"
+#include "ccir_mapping/core/pose_graph/robust_kernel.h"
 
 namespace ccir_mapping::core::pose_graph {
 

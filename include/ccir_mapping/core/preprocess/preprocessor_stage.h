@@ -63,6 +63,8 @@ class PreprocessorStage {
     double max_filter_ms = 0.0;
     /// Scans that never arrived, from gaps in the stamps of those that did.
     std::uint64_t missed_scans = 0;
+
+    double meanFilterMs() const { return keyframes ? total_filter_ms / keyframes : 0.0; }
   };
 
   /// Throws std::invalid_argument when params.validate() reports errors.

@@ -14,7 +14,6 @@
 #include <optional>
 #include <string>
 #include <utility>
-#include <variant>
 #include <vector>
 
 #include "ccir_mapping/core/common/notice.h"
@@ -39,7 +38,6 @@ class BrokerStage {
     std::vector<Notice> refused;
   };
 
-  using ControlMessage = std::variant<Offer, Request, Receipt>;
   /// The bytes a control message takes on the wire (each is counted as the Broker's control
   /// bytes to its teammate).
   using ControlBytes = std::function<std::size_t(const ControlMessage&)>;

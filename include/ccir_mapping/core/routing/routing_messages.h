@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "ccir_mapping/core/common/types.h"
@@ -44,6 +45,9 @@ struct Receipt {
   std::string provider;
   std::vector<KeyframeId> ids;
 };
+
+/// What CCIR's control traffic carries: everything but the scans.
+using ControlMessage = std::variant<Offer, Request, Receipt>;
 
 /// One bridge link as its LinkStats reports it.
 struct LinkState {

@@ -12,8 +12,8 @@
 #include "ccir_mapping/core/preprocess/preprocessor_params.h"
 #include "ccir_mapping/core/routing/broker_params.h"
 #include "ccir_mapping/core/simulation/mission_params.h"
-#include "ccir_mapping/core/transport/bridge_params.h"
 #include "ccir_mapping/core/testing/link_emulator.h"
+#include "ccir_mapping/core/transport/bridge_params.h"
 
 namespace ccir_mapping::core::runner {
 

@@ -13,8 +13,8 @@
 
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/runner/team_message.h"
-#include "ccir_mapping/core/transport/bridge_params.h"
 #include "ccir_mapping/core/testing/link_emulator.h"
+#include "ccir_mapping/core/transport/bridge_params.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 
 namespace ccir_mapping::core::runner {

@@ -20,10 +20,9 @@
 namespace ccir_mapping::core::runner {
 
 /// One message on a link; a scan is shared, not copied, between the teammates it goes to.
-using TeamMessage =
-    std::variant<place_recognition::KeyframeWords, routing::Offer, routing::Request,
-                 routing::Receipt, pose_graph::LoopClosureData,
-                 std::shared_ptr<const routing::WireScan>>;
+using TeamMessage = std::variant<place_recognition::KeyframeWords, routing::Offer, routing::Request,
+                                 routing::Receipt, pose_graph::LoopClosureData,
+                                 std::shared_ptr<const routing::WireScan>>;
 
 /// The Bridge's topic of each alternative, in TeamMessage's order (scans last: bulk).
 constexpr int kTeamTopics = 6;

@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
+#include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/information/mapper_stage.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
 #include "ccir_mapping/core/routing/routing_messages.h"
 #include "ccir_mapping/core/runner/runner_params.h"
-#include "ccir_mapping/core/backend/team_graph.h"
 #include "ccir_mapping/core/transport/link_scheduler.h"
 
 namespace ccir_mapping::core::runner {

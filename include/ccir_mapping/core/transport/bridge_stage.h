@@ -67,7 +67,7 @@ class BridgeStage {
   /// the monotonic wall clock; with one (mission time while replaying) it follows that clock,
   /// never backwards, and looks at it every few milliseconds since it cannot know its speed.
   BridgeStage(const BridgeParams& params, const std::string& own_robot, InboxHandler on_message,
-         LogHandler on_log, Clock clock = {});
+              LogHandler on_log, Clock clock = {});
   ~BridgeStage();
   BridgeStage(const BridgeStage&) = delete;
   BridgeStage& operator=(const BridgeStage&) = delete;

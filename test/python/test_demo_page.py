@@ -1,20 +1,15 @@
-#!/usr/bin/env python3
-"""scripts/lib/demo_page.py on demo outputs made up here: a two-robot one with every series and
+"""ccir_mapping.demo_page on demo outputs made up here: a two-robot one with every series and
 a third robot no team transform reaches, and one where nothing was measured yet. The page names
 every plot it drew, each plot exists, and the summary is on it, escaped."""
 import json
 import os
-import shutil
 import subprocess
-import tempfile
-import unittest
+import sys
 
 import numpy as np
-import rosunit
 import yaml
 
-PAGE = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "scripts", "lib",
-                    "demo_page.py")
+PYTHON_DIR = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "python")
 PLOTS = ["bytes_per_link.png", "known_volume.png", "team_transform_error.png", "team_map.png"]
 
 
@@ -51,39 +46,30 @@ def write_demo(out, robots, measured):
         f.write("robot_a <knows> robot_b & more\n")
 
 
-class DemoPage(unittest.TestCase):
-    def setUp(self):
-        self.dir = tempfile.mkdtemp(prefix="demo_page_")
-
-    def tearDown(self):
-        shutil.rmtree(self.dir, ignore_errors=True)
-
-    def page(self, robots, measured):
-        write_demo(self.dir, robots, measured)
-        done = subprocess.run(["/usr/bin/python3", PAGE, "--out", self.dir], capture_output=True,
-                              text=True)
-        self.assertEqual(done.returncode, 0, done.stderr)
-        self.assertIn(os.path.join(self.dir, "report.html"), done.stdout)
-        with open(os.path.join(self.dir, "report.html")) as f:
-            html = f.read()
-        with open(os.path.join(self.dir, "report.md")) as f:
-            markdown = f.read()
-        self.assertIn("robot_a &lt;knows&gt; robot_b &amp; more", html)
-        self.assertIn("robot_a <knows> robot_b & more", markdown)
-        return html, markdown
-
-    def test_every_plot_of_a_measured_mission(self):
-        html, markdown = self.page(["robot_a", "robot_b", "robot_c"], measured=True)
-        for plot in PLOTS:
-            self.assertIn("plots/" + plot, html)
-            self.assertIn("plots/" + plot, markdown)
-            self.assertGreater(os.path.getsize(os.path.join(self.dir, "plots", plot)), 1000)
-
-    def test_no_plot_before_anything_was_measured(self):
-        html, _ = self.page(["robot_a", "robot_b"], measured=False)
-        self.assertNotIn("<img", html)
-        self.assertEqual(os.listdir(os.path.join(self.dir, "plots")), [])
+def page(out, robots, measured):
+    """The page made of a made-up demo output: (html, markdown)."""
+    write_demo(str(out), robots, measured)
+    done = subprocess.run([sys.executable, "-m", "ccir_mapping.demo_page", "--out", str(out)],
+                          capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
+    assert done.returncode == 0, done.stderr
+    assert str(out / "report.html") in done.stdout
+    html = (out / "report.html").read_text()
+    markdown = (out / "report.md").read_text()
+    assert "robot_a &lt;knows&gt; robot_b &amp; more" in html
+    assert "robot_a <knows> robot_b & more" in markdown
+    return html, markdown
 
 
-if __name__ == "__main__":
-    rosunit.unitrun("ccir_mapping", "demo_page", DemoPage)
+def test_every_plot_of_a_measured_mission(tmp_path):
+    html, markdown = page(tmp_path, ["robot_a", "robot_b", "robot_c"], measured=True)
+    for plot in PLOTS:
+        assert "plots/" + plot in html
+        assert "plots/" + plot in markdown
+        assert (tmp_path / "plots" / plot).stat().st_size > 1000
+
+
+def test_no_plot_before_anything_was_measured(tmp_path):
+    html, _ = page(tmp_path, ["robot_a", "robot_b"], measured=False)
+    assert "<img" not in html
+    assert os.listdir(tmp_path / "plots") == []
