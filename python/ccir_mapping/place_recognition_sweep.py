@@ -1,8 +1,8 @@
 """Place recognition on simulated two-robot mine missions, one per seed (simulate_team), judged by
-eval_place_recognition against the truth: a Markdown table per seed and method (README layout
-plus recall@1/@5 and average precision) and the precision-recall curves as a PNG. Flags it does
-not know go to eval_place_recognition (e.g. --min-place-probability 0.1). A mission or an
-evaluation already in OUT is not run again."""
+eval_place_recognition against the truth: a Markdown table per seed and method (the layout of
+docs/place_recognition.md, plus recall@1/@5 and average precision) and the precision-recall
+curves as a PNG. Flags it does not know go to eval_place_recognition (e.g.
+--min-place-probability 0.1). A mission or an evaluation already in OUT is not run again."""
 import argparse
 import json
 import os
@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 # The methods and their colours.
 METHODS = {"fabmap": "C0", "histogram": "C1", "scan_context": "C2", "hgmm": "C3"}
-# The README's missions: 120 s, robots on each other's lanes, a 3 x 3-pillar mine.
+# docs/place_recognition.md's missions: 120 s, robots on each other's lanes, a 3 x 3-pillar mine.
 MISSION_FLAGS = ["--world", "mine", "--mine-pillars-x", "3", "--mine-pillars-y", "3",
                  "--robots", "2", "--duration-s", "120", "--overlap", "1"]
 

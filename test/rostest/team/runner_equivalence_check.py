@@ -4,7 +4,9 @@ mission's three robots each run their whole pipeline (launch/robot.launch) on a 
 their own, bridged over loopback, fed their bags at 0.3 x, sharing every 2nd keyframe
 (fixed_rate: which scans go does not depend on timing); then run_team runs the same mission with
 the same settings. Each robot must make the same keyframes, send the same number of scans on
-each link, carry the same bytes within 10 % and end knowing the same teammates' transforms."""
+each link, carry the same bytes within 10 % and end knowing the same teammates' transforms. The
+stages are the same objects on both paths; what this checks is their wiring (RobotPipeline
+against the topics of robot.launch) and the runner's emulated link against the Bridge."""
 import csv
 import json
 import os

@@ -5,8 +5,9 @@ bridged over loopback and fed its own bag. Beside robot_a's pipeline runs a seco
 is given no own keyframe (its keyframes topic is remapped away), so its map holds exactly the
 teammate's scans where robot_a places them. After the mission those voxels must lie on robot_b's
 true walls (its scans at their true poses, in robot_a's map frame) within 0.2 m with the team
-graph, and must not without it (backend/team_graph false: robot_b's scans at their odometry poses
-moved by the EM transform). robot_a moves on its true poses (its odometry is the bag's ground
+graph, and must not without it: robot_b's scans at their odometry poses moved by the team
+transform robot_a found (what a map without the team graph holds, computed here from the bag, so
+that one mission shows both). robot_a moves on its true poses (its odometry is the bag's ground
 truth), so robot_a's map frame is the truth's and what is measured is the placement of the
 teammate's scans; robot_b's odometry drifts twice the default, so that raw placement smears
 (within the Backend's odometry model: a teammate drifting beyond it bends this robot's own
@@ -53,13 +54,25 @@ def near(voxels, truth, radius_m):
                      for v in voxels], dtype=bool)
 
 
-def true_walls(mission, plan, frame_from_world, every_n=5):
-    """The voxels of a robot's scans (every n-th) at their true poses, in a frame of the world."""
-    world_from_odom = start_pose(plan)
-    truth = np.loadtxt(os.path.join(mission, plan["ground_truth"]))
+def pose_matrix(pose):
+    p, q = pose.position, pose.orientation
+    return matrix([p.x, p.y, p.z], [q.x, q.y, q.z, q.w])
+
+
+def robot_walls(mission, plan, frame_from_odom, truth=True, every_n=5):
+    """The voxels of a robot's scans (every n-th) in a frame, placed at their true poses or at
+    their odometry poses (the bag's /odom)."""
     base_from_sensor = None
+    stamps, poses = [], []
     voxels = set()
+    if truth:
+        rows = np.loadtxt(os.path.join(mission, plan["ground_truth"]))
+        stamps, poses = rows[:, 0], [matrix(r[1:4], r[4:8]) for r in rows]
     with rosbag.Bag(os.path.join(mission, plan["bag"])) as bag:
+        if not truth:
+            for _, msg, _ in bag.read_messages(topics=["/odom"]):
+                stamps.append(msg.header.stamp.to_sec())
+                poses.append(pose_matrix(msg.pose.pose))
         for n, (topic, msg, _) in enumerate(bag.read_messages(
                 topics=["/tf_static", "/velodyne_points"])):
             if topic == "/tf_static":
@@ -69,10 +82,8 @@ def true_walls(mission, plan, frame_from_world, every_n=5):
                 continue
             if n % every_n:
                 continue
-            stamp = msg.header.stamp.to_sec()
-            row = truth[min(np.searchsorted(truth[:, 0], stamp), len(truth) - 1)]
-            base = matrix(row[1:4], row[4:8])
-            pose = frame_from_world @ world_from_odom @ base @ base_from_sensor
+            i = min(np.searchsorted(stamps, msg.header.stamp.to_sec()), len(stamps) - 1)
+            pose = frame_from_odom @ poses[i] @ base_from_sensor
             points = xyz(msg)
             points = points[np.isfinite(points).all(axis=1)]
             voxels |= keys(points @ pose[:3, :3].T + pose[:3, 3])
@@ -91,14 +102,13 @@ class TeamMap(Processes, unittest.TestCase):
         self.stop_all()
         shutil.rmtree(self.dir, ignore_errors=True)
 
-    def run_team(self, team_graph):
-        """The teammate map beside robot_a after the mission, in robot_a/map, as voxel keys."""
-        run = os.path.join(self.dir, "team_graph_%s" % team_graph)
-        os.makedirs(run)
+    def run_team(self):
+        """The teammate map beside robot_a after the mission, in robot_a/map, as voxel keys, and
+        robot_b's map frame in robot_a's as robot_a's Backend last announced it."""
+        run = self.dir
         master = self.start_team(
             run, ROBOTS,
-            lambda robot, bridge: "broker: {mode: all}\nbackend: {team_graph: %s}\n"
-                                  "bridge: {%s}\n" % (str(team_graph).lower(), bridge),
+            lambda robot, bridge: "broker: {mode: all}\nbridge: {%s}\n" % bridge,
             lambda robot: ["odom_topic:=" + ODOM[robot]])
         for robot in ROBOTS:
             self.spawn("team_" + robot, ["rostopic", "echo", "-p", "/team_transforms"],
@@ -146,30 +156,42 @@ class TeamMap(Processes, unittest.TestCase):
             voxels = keys(np.load(cloud))
             same = voxels == previous[0]
             previous[0] = voxels
-            return same and self.transform_found(run)
+            return same and self.transform(run) is not None
         self.wait_for(settled, 600, "the teammate map settled with robot_b's transform", poll_s=5)
         self.stop_all()
-        return previous[0]
+        return previous[0], self.transform(run)
 
-    def transform_found(self, run):
+    def transform(self, run):
+        """robot_b's map frame in robot_a's, as robot_a last announced it valid (4 x 4), or
+        None."""
         with open(os.path.join(run, "robot_a_team.csv")) as f:
             lines = f.readlines()
         # rostopic's warnings come first, then the header.
         header = next((i for i, line in enumerate(lines) if line.startswith("%time")), len(lines))
-        return any(r.get("field.peer") == "robot_b" and r.get("field.valid") in ("1", "True")
-                   for r in csv.DictReader(lines[header:]))
+        valid = [r for r in csv.DictReader(lines[header:])
+                 if r.get("field.peer") == "robot_b" and r.get("field.valid") in ("1", "True")]
+        if not valid:
+            return None
+        f = {k[len("field.transform."):]: float(v) for k, v in valid[-1].items()
+             if k.startswith("field.transform.")}
+        return matrix([f["translation.x"], f["translation.y"], f["translation.z"]],
+                      [f["rotation.x"], f["rotation.y"], f["rotation.z"], f["rotation.w"]])
 
     def teammate_on_walls(self, voxels):
-        """Share of the teammate map's voxels within WITHIN_M of robot_b's true walls, and how
-        many voxels there are."""
+        """Share of the voxels within WITHIN_M of robot_b's true walls, and how many voxels
+        there are."""
         a_from_world = np.linalg.inv(start_pose(self.plans["robot_a"]))
-        theirs = true_walls(self.mission, self.plans["robot_b"], a_from_world)
+        a_from_b = a_from_world @ start_pose(self.plans["robot_b"])
+        theirs = robot_walls(self.mission, self.plans["robot_b"], a_from_b)
         voxels = np.array(sorted(voxels))
         return float(near(voxels, theirs, WITHIN_M).mean()), len(voxels)
 
     def test_teammate_scans_on_true_walls(self):
-        with_graph, n_with = self.teammate_on_walls(self.run_team(True))
-        without, n_without = self.teammate_on_walls(self.run_team(False))
+        teammate_map, a_from_b = self.run_team()
+        with_graph, n_with = self.teammate_on_walls(teammate_map)
+        # Without the team graph: robot_b's scans at its odometry poses, moved by the transform.
+        raw = robot_walls(self.mission, self.plans["robot_b"], a_from_b, truth=False)
+        without, n_without = self.teammate_on_walls(raw)
         figures = ("teammate voxels within %.1f m of its true walls: %.3f of %d with the team "
                    "graph, %.3f of %d without" % (WITHIN_M, with_graph, n_with, without, n_without))
         print(figures)
