@@ -22,7 +22,7 @@ using ros::serialization::serializationLength;
 class BrokerNodelet final : public PipelineNodelet {
  private:
   using Stage = core::routing::BrokerStage<SharedScan::ConstPtr>;
-  static constexpr double kMapperWaitS = 30.0;  // after start-up (nodelets load in no order)
+  static constexpr double kMapperWaitS = 20.0;  // after start-up (nodelets load in no order)
 
   void onInit() override {
     if (!loadSettings(settings_)) return;

@@ -32,13 +32,8 @@ MatcherStage::Output MatcherStage::describeOwn(KeyframeId id, Stamp stamp, const
   *described =
       measured("describe", [&] { return matcher_.describeOwn(id, stamp, cloud, odom_pose); });
   Output out;
-  out.features =
-      KeyframeWords{robot_,
-                    id,
-                    stamp,
-                    vocabularyHash(),
-                    described->words,
-                    static_cast<std::uint32_t>(described->scan.features.descriptors.size())};
+  const auto descriptors = static_cast<std::uint32_t>(described->scan.features.descriptors.size());
+  out.features = KeyframeWords{robot_, id, stamp, vocabularyHash(), described->words, descriptors};
   for (const auto& c : matcher_.teammateCorrespondences(described->words)) {
     out.correspondences.push_back({c.robot, c.keyframe, {{id, c.count}}});
   }

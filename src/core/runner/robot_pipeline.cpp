@@ -32,6 +32,10 @@ decltype(auto) RobotPipeline::measured(const char* stage, F&& work) {
   return work();
 }
 
+std::function<void(const char*, const std::function<void()>&)> RobotPipeline::meter() {
+  return [this](const char* stage, const std::function<void()>& work) { measured(stage, work); };
+}
+
 void RobotPipeline::addCpu(const char* stage, double seconds) {
   std::lock_guard<std::mutex> lock(cpu_mutex_);
   stage_cpu_[stage] += seconds;
@@ -59,13 +63,8 @@ RobotPipeline::RobotPipeline(std::string name, std::vector<std::string> peers,
                              std::shared_ptr<const pr::PlaceModel> model, double start_s,
                              double phase)
     : name_(std::move(name)),
-      matcher_(name_, params.matcher, std::move(model),
-               {[this](const char* stage, const std::function<void()>& work) {
-                 measured(stage, work);
-               }}),
-      map_(name_, params.mapper,
-           {[this](const char* stage, const std::function<void()>& work) { measured(stage, work); },
-            {}}),
+      matcher_(name_, params.matcher, std::move(model), {meter()}),
+      map_(name_, params.mapper, {meter(), {}}),
       broker_(name_, std::move(peers), params.broker, params.mapper,
               [](const routing::ControlMessage& m) {
                 return std::visit([](const auto& c) { return serializedBytes(TeamMessage(c)); }, m);
@@ -77,9 +76,7 @@ RobotPipeline::RobotPipeline(std::string name, std::vector<std::string> peers,
                   start_s + phase * params.mapper.publish_period_s} {
   broker_.setMap(map_.map());
   backend::BackendStage::Hooks hooks;
-  hooks.run = [this](const char* stage, const std::function<void()>& work) {
-    measured(stage, work);
-  };
+  hooks.run = meter();
   hooks.optimized = [this](const backend::BackendStage::Output& out) { route(out); };
   hooks.refused = [this](const backend::BackendStage::Refusal& r) { refuse(r.notice.kind); };
   backend_ = std::make_unique<backend::BackendStage>(name_, params.backend, hooks,

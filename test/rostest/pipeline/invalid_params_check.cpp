@@ -88,7 +88,7 @@ TEST(InvalidParams, FatalNamesTheParameterAndTheNodeletStaysInert) {
   EXPECT_TRUE(waitFor(
       [&] { return logged(rosgraph_msgs::Log::ERROR, "(save_dir): not journaled"); }, 30.0));
   // The Broker's explicit inputs: a Bridge that does not exist stops it at once; a Mapper that
-  // never loads, once it has had 30 s to.
+  // never loads, once it has had 20 s to.
   EXPECT_TRUE(waitFor(
       [&] { return fatal("bridge: no nodelet named /nowhere (it has no parameters)"); }, 30.0));
   EXPECT_TRUE(

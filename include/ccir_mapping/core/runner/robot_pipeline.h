@@ -5,6 +5,7 @@
 // depends only on the order of the calls (core/runner/team_runner.h makes that order).
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -87,6 +88,8 @@ class RobotPipeline {
   /// Runs `work`, adding its thread's CPU seconds to `stage`.
   template <class F>
   decltype(auto) measured(const char* stage, F&& work);
+  /// The stages' Hooks::run: each piece of their work measured.
+  std::function<void(const char* stage, const std::function<void()>& work)> meter();
   void addCpu(const char* stage, double seconds);
 
   const std::string name_;
