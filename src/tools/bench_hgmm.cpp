@@ -5,7 +5,7 @@
 // cloud: Chamfer distance, and precision / recall of the occupied voxels at --voxel-m (the
 // cells an OctoMap of the points at that resolution marks occupied). Prints JSON. With
 // --samples-out DIR also writes each scan's points and each level's samples as "x y z" lines
-// (DIR/<scan>_points.xyz, DIR/<scan>_level<L>.xyz) for scripts/lib/plot_hgmm.py. Each scan after
+// (DIR/<scan>_points.xyz, DIR/<scan>_level<L>.xyz) for ccir_mapping.plot_hgmm. Each scan after
 // the first is also registered onto the first from the identity, by its deepest level's
 // mixture (GMM-to-GMM GICP) and by points sampled from it (GICP onto the first's points). The
 // voxel comparison's own floor is printed too: the scan against itself remeasured with 1-3 cm

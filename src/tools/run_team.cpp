@@ -3,7 +3,7 @@
 // an emulated radio. A run is determined by its flags (the mission's seed included) and is the
 // same for any --threads. Progress on stderr; a summary as JSON on stdout; with --out,
 // DIR/report.json with the time series too, in the layout of the demo's report.json
-// (scripts/lib/demo_page.py and compare_routing.py read either). Exit codes: 0 done, 1 failed, 2
+// (ccir_mapping.demo_page and compare_routing read either). Exit codes: 0 done, 1 failed, 2
 // bad arguments.
 #include <algorithm>
 #include <cmath>
@@ -32,7 +32,7 @@ namespace runner = ccir_mapping::core::runner;
 
 namespace {
 
-/// A transform within this of the truth is correct (as in scripts/lib/demo_summary.py).
+/// A transform within this of the truth is correct (as in ccir_mapping.demo_summary).
 constexpr double kCorrectM = 0.3, kCorrectDeg = 2.0;
 
 struct Options {

@@ -206,7 +206,10 @@ TeamResult TeamRunner::run(const Progress& progress) {
   double next_stats = start_s, next_series = start_s, next_topology = start_s;
   std::uint64_t order = 0;
   for (double t0 = start_s; t0 < end_s - 1e-9; t0 += step) {
-    const double t1 = std::min(t0 + step, end_s);
+    // The last step (t0 accumulates rounding, hence the margin) ends at end_s and takes every
+    // keyframe left: the mission's last scan is published as it ends, and a bag holds it too.
+    const bool last = t0 + step >= end_s - 1e-9;
+    const double t1 = last ? end_s : t0 + step;
     if (t0 >= next_topology) {
       updateTopology(t0);
       next_topology += kTopologyPeriodS;
@@ -226,7 +229,7 @@ TeamResult TeamRunner::run(const Progress& progress) {
         }
       }
       robot.runTimers(t0);
-      const auto frames = feeds[i]->takeUntil(t1);
+      const auto frames = feeds[i]->takeUntil(last ? kInfinity : t1);
       auto& messages = inbox[i];
       std::size_t k = 0, m = 0;
       while (k < frames.size() || (m < messages.size() && messages[m].arrival_s < t1)) {

@@ -2,8 +2,12 @@
 // run is the same for any thread count, sends what its mode says and holds its budget.
 #include <gtest/gtest.h>
 
+#include <limits>
+
+#include "ccir_mapping/core/runner/keyframe_feed.h"
 #include "ccir_mapping/core/runner/team_link.h"
 #include "ccir_mapping/core/runner/team_runner.h"
+#include "ccir_mapping/core/simulation/mission.h"
 
 namespace ccir_mapping::core::runner {
 namespace {
@@ -133,6 +137,25 @@ TEST(TeamRunner, FixedRateSendsEveryNthKeyframe) {
   const TeamResult r = TeamRunner(smallMission(routing::RoutingMode::kFixedRate), model()).run();
   for (const auto& robot : r.robots) {
     EXPECT_EQ(robot.broker.scans_sent, (robot.keyframes + 1) / 2) << robot.name;
+  }
+}
+
+TEST(TeamRunner, RunsEveryKeyframeTheRecordingMakesTheLastOneToo) {
+  // Every scan a keyframe, so that the last one, published as the mission ends, is one (a bag
+  // replayed into the nodelets holds it).
+  RunnerParams params = smallMission(routing::RoutingMode::kFixedRate);
+  params.mission.duration_s = 2.0;
+  params.preprocessor.keyframe_distance_m = 0.0;
+  params.preprocessor.keyframe_rotation_deg = 0.0;
+  params.matcher.max_candidates = 1;
+  const TeamResult r = TeamRunner(params, model()).run();
+  const simulation::Mission mission(params.mission);
+  for (int i = 0; i < params.mission.robots; ++i) {
+    KeyframeFeed feed(mission, i, params.preprocessor);
+    const auto recorded = feed.takeUntil(std::numeric_limits<double>::infinity());
+    ASSERT_FALSE(recorded.empty());
+    EXPECT_DOUBLE_EQ(recorded.back().published_s, toSeconds(mission.endStamp()));
+    EXPECT_EQ(r.robots[i].keyframes, recorded.size()) << r.robots[i].name;
   }
 }
 

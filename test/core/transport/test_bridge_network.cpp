@@ -439,7 +439,8 @@ TEST(BridgeNetwork, APeerSendingAtLineRateIsHeldBackAndTheHonestLinkCarriesOn) {
 
   EXPECT_TRUE(offers_reached_b && offers_reached_a && scans_reached_b)
       << "the honest link carried its traffic both ways";
-  // The documented bound (docs/bridge.md): twice the budget, in bursts of twice burst_bytes and 64 KB.
+  // The documented bound (docs/bridge.md): twice the budget, in bursts of twice burst_bytes and
+  // 64 KB.
   const double read_burst = 2.0 * pb.burst_bytes + 65536;
   EXPECT_LE(from_c, read_burst + 2.0 * pb.budget_bytes_per_s * took_s)
       << "b read c no faster than twice its budget over " << took_s << " s";
