@@ -47,6 +47,10 @@ BURST = 131072
 TEAM_KEY = "bridge-test-team-key"
 CUT_AFTER_S = 8.0  # into the traffic; robot_b's crash with ~restart too
 RESTART_TRAFFIC_AFTER_S = 4.0  # after the crash: robot_b's new process sends from then
+# Queues that hold every message of a run (30 s at most: 600 pings, 200 clouds), so that an
+# outage's backlog waits whole however late the link is seen down: the default 100 pings fill
+# in 5 s, and a busy machine once dropped one (queue_full) in the 60 s outage.
+QUEUED = 1000
 
 
 def executable(name):
@@ -218,10 +222,11 @@ class BridgeMasters(Processes, unittest.TestCase):
                         "  total_budget_bytes_per_s: %f\n  burst_bytes: %d\n"
                         "  reconnect_min_s: 0.2\n  reconnect_max_s: 1.0\n  peer_timeout_s: 5.0\n"
                         "  peers: [%s]\n"
-                        "  topics: [{topic: outbox/ping, priority: control},\n"
+                        "  topics: [{topic: outbox/ping, priority: control, max_queued: %d},\n"
                         "           {topic: outbox/state, priority: control},\n"
-                        "           {topic: outbox/cloud, priority: bulk}]\n"
-                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers)))
+                        "           {topic: outbox/cloud, priority: bulk, max_queued: %d}]\n"
+                        % (listen[robot], TEAM_KEY, BUDGET, BUDGET, BURST, ", ".join(peers),
+                           QUEUED, QUEUED))
             traffic[robot] = start_robot(robot, config, start_at)
 
         restarted_at = None
