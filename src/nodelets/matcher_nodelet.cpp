@@ -112,6 +112,8 @@ class MatcherNodelet final : public PipelineNodelet {
     status.add("places", stage_->matcher().places());
     status.add("teammate scans kept", stage_->matcher().keptScans());
     status.add("candidates verified", verified_);
+    status.add("candidates queued", stage_->matcher().queued());
+    status.add("candidates expired unverified", stage_->matcher().expired());
   }
 
   ros_params::MatcherSettings settings_;

@@ -193,6 +193,11 @@ void load(ParamReader& reader, MatcherSettings& config) {
   reader.read("complete_places", p.complete_places);
   reader.read("own_loop_gate_m_per_m", p.own_loop_gate_m_per_m);
   reader.read("own_loop_gate_rad_per_m", p.own_loop_gate_rad_per_m);
+  reader.read("search_reach_m", p.search.reach_m);
+  reader.read("search_max_drift_m", p.search.max_drift_m);
+  reader.read("gated_candidates", p.search.gated_candidates);
+  reader.read("prior_free_verifications_per_s", p.search.prior_free_verifications_per_s);
+  reader.read("prior_free_horizon_s", p.search.prior_free_horizon_s);
   auto& v = p.verification;
   reader.read("min_inliers", v.min_inliers);
   reader.read("max_fitness_m2", v.max_fitness_m2);

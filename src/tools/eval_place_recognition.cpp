@@ -166,6 +166,8 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
                       double true_distance_m, const core::Pose3& true_transform) {
   pr::MatcherParams params = base;
   params.method = method;
+  // Each teammate query is judged on its own candidates: none wait for a verification budget.
+  params.search.prior_free_verifications_per_s = 0.0;
   pr::PlaceMatcher matcher(params, model);
   MethodResult result;
   auto near = [&](const Keyframe& a, const Keyframe& b) {
@@ -185,7 +187,7 @@ MethodResult evaluate(pr::MatchMethod method, const pr::MatcherParams& base,
   double query_s = 0.0;
   for (const Keyframe& q : queries) {
     const auto start = std::chrono::steady_clock::now();
-    const auto candidates = matcher.matchTeammate(q.described);
+    const auto candidates = matcher.matchTeammate("teammate", q.described);
     query_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       const bool truth = near(map[candidates[i].keyframe], q);

@@ -42,6 +42,16 @@ std::vector<std::string> MixtureMatchParams::validate() const {
   return errors;
 }
 
+std::vector<std::string> SearchParams::validate() const {
+  ParamCheck check;
+  check.inRange("search_reach_m", reach_m, 0.0, 1000.0);
+  check.inRange("search_max_drift_m", max_drift_m, 0.0, 10000.0);
+  check.inRange("gated_candidates", gated_candidates, 1, 1000);
+  check.inRange("prior_free_verifications_per_s", prior_free_verifications_per_s, 0.0, 1000.0);
+  check.inRange("prior_free_horizon_s", prior_free_horizon_s, 0.001, 3600.0);
+  return check.errors();
+}
+
 std::vector<std::string> MatcherParams::validate() const {
   ParamCheck check;
   check.inRange("min_correspondences", min_correspondences, 0, 10000);
@@ -53,6 +63,7 @@ std::vector<std::string> MatcherParams::validate() const {
   check.inRange("own_loop_gate_rad_per_m", own_loop_gate_rad_per_m, 0.0, 10.0);
   auto errors = check.errors();
   for (auto& error : verification.validate()) errors.push_back(std::move(error));
+  for (auto& error : search.validate()) errors.push_back(std::move(error));
   for (auto& error : fabmap.validate()) errors.push_back(std::move(error));
   for (auto& error : scan_context.validate()) errors.push_back(std::move(error));
   for (auto& error : hgmm.validate()) errors.push_back(std::move(error));

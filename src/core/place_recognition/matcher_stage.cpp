@@ -48,6 +48,7 @@ MatcherStage::Output MatcherStage::matchOwn(DescribedKeyframe described) {
   Output out;
   closeLoop(kept, robot_, id, std::nullopt, out);
   closeLoop(places, robot_, id, std::nullopt, out);
+  verifyQueued(out);
   return out;
 }
 
@@ -76,9 +77,10 @@ MatcherStage::Output MatcherStage::onTeammateScan(const std::string& robot, Keyf
     return matcher_.describeTeammate(id, stamp, cloud, odom_pose, drawn_from_mixture);
   });
   Output out;
-  closeLoop(measured("match", [&] { return matcher_.matchTeammate(described); }), robot, id,
+  closeLoop(measured("match", [&] { return matcher_.matchTeammate(robot, described); }), robot, id,
             described.odom_pose, out);
   matcher_.keepTeammateScan(robot, std::move(described));
+  verifyQueued(out);
   return out;
 }
 
@@ -89,6 +91,15 @@ void MatcherStage::closeLoop(const std::vector<MatchCandidate>& candidates,
   if (const MatchCandidate* best = bestAccepted(candidates)) {
     out.loop_closures.push_back(
         matcher_.loopClosure(robot_, *best, query_robot, query, query_odom_pose));
+  }
+}
+
+void MatcherStage::verifyQueued(Output& out) {
+  const auto matches = measured("match", [&] { return matcher_.verifyQueued(); });
+  out.verified += matches.size();
+  for (const auto& m : matches) {
+    if (!m.candidate.verification.accepted) continue;
+    out.loop_closures.push_back(matcher_.loopClosure(robot_, m.candidate, robot_, m.own));
   }
 }
 

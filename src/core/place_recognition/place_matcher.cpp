@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
+#include <tuple>
 
 #include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/hgmm/hgmm.h"
 #include "ccir_mapping/core/hgmm/mixture_registration.h"
+#include "ccir_mapping/core/place_recognition/place_positions.h"
 #include "ccir_mapping/core/place_recognition/scan_context_index.h"
 
 namespace ccir_mapping::core::place_recognition {
@@ -17,6 +20,17 @@ const PlaceModel& required(const std::shared_ptr<const PlaceModel>& model) {
   if (!model) throw std::invalid_argument("PlaceMatcher needs a place-recognition model");
   return *model;
 }
+
+PoseGate::Params gateParams(const MatcherParams& params) {
+  PoseGate::Params g;
+  g.drift_m_per_m = params.own_loop_gate_m_per_m;
+  g.max_drift_m = params.search.max_drift_m;
+  g.reach_m = params.search.reach_m;
+  return g;
+}
+
+/// A gate ratio for places no prior admits.
+constexpr double kOutside = std::numeric_limits<double>::infinity();
 
 HistogramParams histogramParams(const MatcherParams& params) {
   HistogramParams h;
@@ -38,8 +52,8 @@ const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates
   return best;
 }
 
-/// Places with their indices: FAB-MAP 2.0 (whose inverted index also gives c_k) and the
-/// histogram.
+/// Places with their indices: FAB-MAP 2.0 (whose inverted index also gives c_k), the
+/// histogram, Scan Context, and the places' odometry positions in each robot's frame.
 class PlaceMatcher::PlaceSet {
  public:
   PlaceSet(const FabMapModel& model, const std::vector<WordSet>& samples,
@@ -52,6 +66,7 @@ class PlaceMatcher::PlaceSet {
     histogram.addKeyframe(index, keyframe.scan.features.descriptors);
     // Every place has one with method scan_context, so the index's places are these.
     if (keyframe.context) scan_context.add(*keyframe.context);
+    if (keyframe.odom_pose) positions[robot].add(index, keyframe.odom_pose->translation());
     index_of[{robot, keyframe.id}] = index;
     robots.push_back(robot);
     places.push_back(std::move(keyframe));
@@ -63,6 +78,7 @@ class PlaceMatcher::PlaceSet {
   FabMap2 fabmap;
   HistogramMatcher histogram;
   ScanContextIndex scan_context;
+  std::map<std::string, PlacePositions> positions;  // by robot, "" = this one
 };
 
 PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const PlaceModel> model)
@@ -74,12 +90,20 @@ PlaceMatcher::PlaceMatcher(const MatcherParams& params, std::shared_ptr<const Pl
       own_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
                                       params_.scan_context)),
       kept_(std::make_unique<PlaceSet>(fabmap_model_, model_->samples, histogramParams(params_),
-                                       params_.scan_context)) {}
+                                       params_.scan_context)),
+      gate_(gateParams(params_)) {
+  if (params_.search.prior_free_verifications_per_s > 0.0) {
+    queue_.emplace(params_.search.prior_free_verifications_per_s,
+                   params_.search.prior_free_horizon_s);
+  }
+}
 
 PlaceMatcher::~PlaceMatcher() = default;
 
 std::size_t PlaceMatcher::places() const { return own_->places.size(); }
 std::size_t PlaceMatcher::keptScans() const { return kept_->places.size(); }
+std::size_t PlaceMatcher::queued() const { return queue_ ? queue_->size() : 0; }
+std::size_t PlaceMatcher::expired() const { return queue_ ? queue_->expired() : 0; }
 
 pose_graph::LoopClosureData PlaceMatcher::loopClosure(
     const std::string& self, const MatchCandidate& match, const std::string& query_robot,
@@ -237,24 +261,24 @@ std::vector<PlaceMatcher::TeammateCorrespondence> PlaceMatcher::teammateCorrespo
   return result;
 }
 
-std::vector<MatchCandidate> PlaceMatcher::match(
+std::vector<PlaceMatcher::Ranked> PlaceMatcher::rank(
     PlaceSet& set, const DescribedKeyframe& query,
     const std::function<bool(const DescribedKeyframe&)>& eligible, bool query_is_from,
-    std::vector<double>* motion) const {
+    std::vector<double>* motion, double* new_place_probability) const {
   const std::vector<int> shared = set.fabmap.sharedWords(query.words);
   std::vector<Ranked> ranked;
-  double new_place_probability = -1.0;
+  *new_place_probability = -1.0;
   if (params_.method == MatchMethod::kFabmap) {
     // Places the query may not match are left out of the prior, so they take no mass.
     std::vector<bool> allowed(set.places.size());
     for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = eligible(set.places[i]);
     const std::vector<double> posterior = set.fabmap.posterior(
         query.words, placePrior(allowed, motion ? *motion : std::vector<double>{}, params_.fabmap));
-    new_place_probability = posterior.back();
+    *new_place_probability = posterior.back();
     for (std::size_t i = 0; i < set.places.size(); ++i) {
       if (allowed[i] && shared[i] >= params_.min_correspondences &&
           posterior[i] >= params_.min_place_probability) {
-        ranked.push_back({i, posterior[i], std::nullopt});
+        ranked.push_back({i, posterior[i], std::nullopt, 0});
       }
     }
     if (motion) *motion = posterior;
@@ -274,9 +298,14 @@ std::vector<MatchCandidate> PlaceMatcher::match(
       }
     }
   }
-  if (ranked.size() > static_cast<std::size_t>(params_.max_candidates)) {
-    ranked.resize(static_cast<std::size_t>(params_.max_candidates));
-  }
+  for (Ranked& r : ranked) r.correspondences = shared[r.index];
+  return ranked;
+}
+
+std::vector<MatchCandidate> PlaceMatcher::verify(PlaceSet& set, const DescribedKeyframe& query,
+                                                 const std::vector<Ranked>& ranked,
+                                                 bool query_is_from,
+                                                 double new_place_probability) const {
   std::vector<MatchCandidate> candidates;
   for (const Ranked& r : ranked) {
     const DescribedKeyframe& place = set.places[r.index];
@@ -285,7 +314,7 @@ std::vector<MatchCandidate> PlaceMatcher::match(
     c.keyframe = place.id;
     c.score = r.score;
     c.new_place_probability = new_place_probability;
-    c.correspondences = shared[r.index];
+    c.correspondences = r.correspondences;
     const registration::PreparedScan& scan = ready(set, r.index);
     const registration::PreparedScan& from = query_is_from ? query.scan : scan;
     const registration::PreparedScan& to = query_is_from ? scan : query.scan;
@@ -344,8 +373,12 @@ std::vector<PlaceMatcher::Ranked> PlaceMatcher::rankByMixtures(
   return ranked;
 }
 
+const DescribedKeyframe& PlaceMatcher::ownPlace(KeyframeId id) const {
+  return own_->places[own_->index_of.at({std::string(), id})];
+}
+
 void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate& c) const {
-  const DescribedKeyframe& place = own_->places[own_->index_of.at({"", c.keyframe})];
+  const DescribedKeyframe& place = ownPlace(c.keyframe);
   if (!c.verification.accepted || !query.odom_pose || !place.odom_pose ||
       params_.own_loop_gate_m_per_m <= 0.0 || params_.own_loop_gate_rad_per_m <= 0.0) {
     return;
@@ -355,7 +388,7 @@ void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate
   const double path_m = std::abs(query.path_m - place.path_m);
   const double shift_m = disagreement.translation().norm();
   const double turn_rad = Eigen::AngleAxisd(disagreement.linear()).angle();
-  const double max_shift_m = 1.0 + params_.own_loop_gate_m_per_m * path_m;
+  const double max_shift_m = PoseGate::kBaseAllowanceM + params_.own_loop_gate_m_per_m * path_m;
   const double max_turn_rad = 0.2 + params_.own_loop_gate_rad_per_m * path_m;
   if (shift_m > max_shift_m || turn_rad > max_turn_rad) {
     c.verification.accepted = false;
@@ -366,25 +399,199 @@ void PlaceMatcher::gateByOdometry(const DescribedKeyframe& query, MatchCandidate
   }
 }
 
+const DescribedKeyframe* PlaceMatcher::place(const PlaceSet& set, const std::string& robot,
+                                             KeyframeId id) const {
+  const auto it = set.index_of.find({robot, id});
+  return it == set.index_of.end() ? nullptr : &set.places[it->second];
+}
+
+void PlaceMatcher::anchor(const std::string& robot, const DescribedKeyframe& own,
+                          const DescribedKeyframe& other, const Pose3& relative) {
+  if (!gateOn() || !own.odom_pose || !other.odom_pose) return;
+  GateAnchor a;
+  a.other_in_own = *own.odom_pose * relative * other.odom_pose->inverse();
+  a.own_path_m = own.path_m;
+  a.other_position = other.odom_pose->translation();
+  if (robot.empty()) a.other_path_m = other.path_m;
+  gate_.addAnchor(robot, a);
+}
+
+void PlaceMatcher::gateRatios(const PlaceSet& set, const std::string& robot,
+                              const DescribedKeyframe& query, bool query_is_own,
+                              std::vector<double>& gate) const {
+  const auto positions = set.positions.find(query_is_own ? robot : std::string());
+  if (!gateOn() || !query.odom_pose || positions == set.positions.end()) return;
+  const GateKeyframe q{query.odom_pose->translation(),
+                       query_is_own ? std::optional<double>(query.path_m) : std::nullopt};
+  std::deque<GateAnchor> anchors = gate_.anchors(robot);
+  // Own loops: odometry itself is a prior, anchored at the query.
+  if (robot.empty()) anchors.push_back({Pose3::Identity(), query.path_m, q.position, q.path_m});
+  for (const GateAnchor& a : anchors) {
+    // The query predicted in the places' frame; this robot's side of the pair and the other's.
+    const bool places_are_other = query_is_own && !robot.empty();
+    const Eigen::Vector3d centre =
+        places_are_other ? a.other_in_own.inverse() * q.position : a.other_in_own * q.position;
+    for (const std::size_t i : positions->second.within(centre, gate_.searchRadius())) {
+      const DescribedKeyframe& p = set.places[i];
+      const GateKeyframe place{p.odom_pose->translation(), robot.empty() || !places_are_other
+                                                               ? std::optional<double>(p.path_m)
+                                                               : std::nullopt};
+      const double r = places_are_other ? gate_.ratio(a, q, place) : gate_.ratio(a, place, q);
+      gate[i] = std::min(gate[i], r);
+    }
+  }
+}
+
+std::vector<PlaceMatcher::Ranked> PlaceMatcher::nearestGated(
+    const std::vector<Ranked>& ranked, const std::vector<double>& gate) const {
+  std::vector<Ranked> gated;
+  for (const Ranked& r : ranked) {
+    if (gate[r.index] <= 1.0) gated.push_back(r);
+  }
+  // Within the gate the prior is a better guide than appearance, which an aliased mine fools.
+  std::stable_sort(gated.begin(), gated.end(),
+                   [&](const Ranked& a, const Ranked& b) { return gate[a.index] < gate[b.index]; });
+  if (gated.size() > static_cast<std::size_t>(params_.search.gated_candidates)) {
+    gated.resize(static_cast<std::size_t>(params_.search.gated_candidates));
+  }
+  return gated;
+}
+
 std::vector<MatchCandidate> PlaceMatcher::addOwn(DescribedKeyframe keyframe) {
+  sawStamp(keyframe.stamp);
   const Stamp newest = keyframe.stamp - fromSeconds(params_.loop_exclusion_s);
-  auto candidates = match(
-      *own_, keyframe, [newest](const DescribedKeyframe& k) { return k.stamp <= newest; }, false,
-      &own_posterior_);
-  for (auto& c : candidates) gateByOdometry(keyframe, c);
+  const bool gated = gateOn() && keyframe.odom_pose;
+  std::vector<double> gate(own_->places.size(), gated ? kOutside : 0.0);
+  gateRatios(*own_, "", keyframe, true, gate);
+  double new_place_probability = -1.0;
+  std::vector<Ranked> ranked = rank(
+      *own_, keyframe,
+      [&](const DescribedKeyframe& k) {
+        // Places are held in a vector: k's address gives its index.
+        return k.stamp <= newest && gate[&k - own_->places.data()] <= 1.0;
+      },
+      false, &own_posterior_, &new_place_probability);
+  if (gated) {
+    ranked = nearestGated(ranked, gate);
+  } else if (ranked.size() > static_cast<std::size_t>(params_.max_candidates)) {
+    ranked.resize(static_cast<std::size_t>(params_.max_candidates));
+  }
+  auto candidates = verify(*own_, keyframe, ranked, false, new_place_probability);
+  for (auto& c : candidates) {
+    gateByOdometry(keyframe, c);
+    if (c.verification.accepted) {
+      anchor("", ownPlace(c.keyframe), keyframe, c.verification.relative);
+    }
+  }
   own_->add("", std::move(keyframe));
   remember(*own_, own_->places.size() - 1);
   return candidates;
 }
 
-std::vector<MatchCandidate> PlaceMatcher::matchTeammate(const DescribedKeyframe& keyframe) const {
-  return match(
-      *own_, keyframe, [](const DescribedKeyframe&) { return true; }, false);
+std::vector<MatchCandidate> PlaceMatcher::searchTeammates(
+    PlaceSet& set, const DescribedKeyframe& query, const std::vector<Ranked>& ranked,
+    const std::vector<double>& gate, bool query_is_from, double new_place_probability,
+    const std::function<KeyframeId(const Ranked&)>& own_of,
+    const std::function<std::pair<std::string, KeyframeId>(const Ranked&)>& teammate_of) {
+  std::vector<Ranked> now = nearestGated(ranked, gate);
+  std::size_t prior_free = 0;
+  for (const Ranked& r : ranked) {
+    if (gate[r.index] <= 1.0) continue;
+    if (prior_free++ < static_cast<std::size_t>(params_.max_candidates)) {
+      if (!queue_) {
+        now.push_back(r);
+        continue;
+      }
+      VerificationQueue::Entry e;
+      e.score = r.score;
+      e.queued = newest_stamp_;
+      e.own = own_of(r);
+      std::tie(e.teammate, e.teammate_keyframe) = teammate_of(r);
+      e.new_place_probability = new_place_probability;
+      e.correspondences = r.correspondences;
+      queue_->push(std::move(e));
+    }
+  }
+  return verify(set, query, now, query_is_from, new_place_probability);
+}
+
+std::vector<MatchCandidate> PlaceMatcher::matchTeammate(const std::string& robot,
+                                                        const DescribedKeyframe& keyframe) {
+  sawStamp(keyframe.stamp);
+  std::vector<double> gate(own_->places.size(), kOutside);
+  gateRatios(*own_, robot, keyframe, false, gate);
+  double new_place_probability = -1.0;
+  const auto ranked = rank(
+      *own_, keyframe, [](const DescribedKeyframe&) { return true; }, false, nullptr,
+      &new_place_probability);
+  auto candidates = searchTeammates(
+      *own_, keyframe, ranked, gate, false, new_place_probability,
+      [&](const Ranked& r) { return own_->places[r.index].id; },
+      [&](const Ranked&) { return std::make_pair(robot, keyframe.id); });
+  for (const auto& c : candidates) {
+    if (c.verification.accepted) {
+      anchor(robot, ownPlace(c.keyframe), keyframe, c.verification.relative);
+    }
+  }
+  return candidates;
 }
 
 void PlaceMatcher::keepTeammateScan(const std::string& robot, DescribedKeyframe keyframe) {
   kept_->add(robot, std::move(keyframe));
   remember(*kept_, kept_->places.size() - 1);
+}
+
+std::vector<MatchCandidate> PlaceMatcher::matchKeptScans(const DescribedKeyframe& keyframe) {
+  sawStamp(keyframe.stamp);
+  std::vector<double> gate(kept_->places.size(), kOutside);
+  for (const auto& [robot, positions] : kept_->positions) {
+    gateRatios(*kept_, robot, keyframe, true, gate);
+  }
+  double new_place_probability = -1.0;
+  const auto ranked = rank(
+      *kept_, keyframe, [](const DescribedKeyframe&) { return true; }, true, nullptr,
+      &new_place_probability);
+  auto candidates = searchTeammates(
+      *kept_, keyframe, ranked, gate, true, new_place_probability,
+      [&](const Ranked&) { return keyframe.id; },
+      [&](const Ranked& r) {
+        return std::make_pair(kept_->robots[r.index], kept_->places[r.index].id);
+      });
+  for (const auto& c : candidates) {
+    if (c.verification.accepted) {
+      anchor(c.robot, keyframe, *place(*kept_, c.robot, c.keyframe), c.verification.relative);
+    }
+  }
+  return candidates;
+}
+
+std::vector<PlaceMatcher::QueuedMatch> PlaceMatcher::verifyQueued() {
+  std::vector<QueuedMatch> matches;
+  if (!queue_) return matches;
+  for (const auto& e : queue_->release(newest_stamp_)) {
+    const auto own = own_->index_of.find({std::string(), e.own});
+    const auto kept = kept_->index_of.find({e.teammate, e.teammate_keyframe});
+    // Both are kept for good once matched; a pair whose own keyframe was never added (its
+    // caller did not call addOwn) is skipped.
+    if (own == own_->index_of.end() || kept == kept_->index_of.end()) continue;
+    QueuedMatch m;
+    m.own = e.own;
+    MatchCandidate& c = m.candidate;
+    c.robot = e.teammate;
+    c.keyframe = e.teammate_keyframe;
+    c.score = e.score;
+    c.new_place_probability = e.new_place_probability;
+    c.correspondences = e.correspondences;
+    // "from" is this robot's keyframe.
+    const registration::PreparedScan& from = ready(*own_, own->second);
+    c.verification = verifier_.verify(from, ready(*kept_, kept->second));
+    if (c.verification.accepted) {
+      anchor(e.teammate, own_->places[own->second], kept_->places[kept->second],
+             c.verification.relative);
+    }
+    matches.push_back(std::move(m));
+  }
+  return matches;
 }
 
 const registration::PreparedScan& PlaceMatcher::ready(PlaceSet& set, std::size_t index) const {
@@ -403,11 +610,6 @@ void PlaceMatcher::remember(PlaceSet& set, std::size_t index) const {
     registration::ScanVerifier::compact(oldest_set->places[oldest].scan);
     recent_.pop_front();
   }
-}
-
-std::vector<MatchCandidate> PlaceMatcher::matchKeptScans(const DescribedKeyframe& keyframe) const {
-  return match(
-      *kept_, keyframe, [](const DescribedKeyframe&) { return true; }, true);
 }
 
 }  // namespace ccir_mapping::core::place_recognition

@@ -2,6 +2,7 @@
 // the temporal exclusion window, teammate queries that never become places, both methods.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -92,6 +93,13 @@ class PlaceMatcherTest : public ::testing::Test {
     }
   }
 
+  /// Without a verification budget: a teammate query verifies its candidates at once.
+  static MatcherParams atOnce() {
+    MatcherParams params;
+    params.search.prior_free_verifications_per_s = 0.0;
+    return params;
+  }
+
   DescribedKeyframe keyframe(const PlaceMatcher& matcher, KeyframeId id, double stamp_s,
                              int scene) const {
     const Scene& s = scenes_[static_cast<std::size_t>(scene)];
@@ -140,6 +148,72 @@ TEST_F(PlaceMatcherTest, OwnLoopsOnlyBeyondTheExclusionWindow) {
   EXPECT_EQ(loop.inliers, best->verification.inliers);
   EXPECT_EQ(loop.fitness_m2, best->verification.fitness_m2);
   EXPECT_EQ(loop.method, "fabmap");
+}
+
+TEST_F(PlaceMatcherTest, OwnLoopsAreSearchedNearestFirstWhereOdometryPutsThem) {
+  MatcherParams params;
+  params.search.gated_candidates = 2;
+  PlaceMatcher matcher(params, model_);
+  auto at = [&](KeyframeId id, double stamp_s, double x, double path_m) {
+    DescribedKeyframe k = keyframe(matcher, id, stamp_s, 0);  // all look alike
+    k.odom_pose = Pose3(Eigen::Translation3d(x, 0.0, 0.0));
+    k.path_m = path_m;
+    return k;
+  };
+  for (KeyframeId id = 0; id < 5; ++id) matcher.addOwn(at(id, double(id), double(id), double(id)));
+  matcher.addOwn(at(5, 5.0, 200.0, 200.0));  // a look-alike far from here
+  // Back near the start after 400 m: the gate (15 m + 1 m + 0.1 x path, at most 60 m) holds the
+  // first five places, and the two nearest where odometry puts the keyframe are verified.
+  const auto candidates = matcher.addOwn(at(6, 100.0, 0.2, 400.0));
+  ASSERT_EQ(candidates.size(), 2U);
+  std::vector<KeyframeId> verified{candidates[0].keyframe, candidates[1].keyframe};
+  std::sort(verified.begin(), verified.end());
+  EXPECT_EQ(verified, (std::vector<KeyframeId>{0, 1}));
+  ASSERT_NE(bestAccepted(candidates), nullptr);
+
+  // Without the gate (own_loop_gate_m_per_m 0) every place is a candidate, the look-alike too.
+  params.own_loop_gate_m_per_m = 0.0;
+  PlaceMatcher ungated(params, model_);
+  for (KeyframeId id = 0; id < 5; ++id) ungated.addOwn(at(id, double(id), double(id), double(id)));
+  ungated.addOwn(at(5, 5.0, 200.0, 200.0));
+  EXPECT_EQ(ungated.addOwn(at(6, 100.0, 0.2, 400.0)).size(), 6U);
+}
+
+TEST_F(PlaceMatcherTest, TeammateCandidatesWaitForTheBudgetAndTheirClosuresGateTheNext) {
+  MatcherParams params;
+  params.search.prior_free_verifications_per_s = 1.0;
+  PlaceMatcher matcher(params, model_);
+  auto own = [&](KeyframeId id, double stamp_s, int scene, double x) {
+    DescribedKeyframe k = keyframe(matcher, id, stamp_s, scene);
+    k.odom_pose = Pose3(Eigen::Translation3d(x, 0.0, 0.0));
+    k.path_m = x;
+    return k;
+  };
+  auto theirs = [&](KeyframeId id, double stamp_s) {
+    DescribedKeyframe k = keyframe(matcher, id, stamp_s, 1);
+    k.odom_pose = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));  // in robot_b's frame
+    return k;
+  };
+  matcher.addOwn(own(0, 0.0, 1, 0.0));
+  matcher.addOwn(own(1, 1.0, 2, 5.0));
+  // robot_b's frame is not anchored yet: its scan's candidates wait for the budget.
+  EXPECT_TRUE(matcher.matchTeammate("robot_b", theirs(7, 2.0)).empty());
+  EXPECT_EQ(matcher.queued(), 2U) << "both own places share words with it";
+  matcher.keepTeammateScan("robot_b", theirs(7, 2.0));
+  EXPECT_TRUE(matcher.verifyQueued().empty()) << "no mission time has passed yet";
+  matcher.addOwn(own(2, 4.0, 0, 10.0));  // 2 s later, a budget of 1 verification
+  const auto released = matcher.verifyQueued();
+  ASSERT_EQ(released.size(), 1U);
+  EXPECT_EQ(released[0].own, 0U) << "the best-scored pair first";
+  EXPECT_EQ(released[0].candidate.robot, "robot_b");
+  EXPECT_EQ(released[0].candidate.keyframe, 7U);
+  ASSERT_TRUE(released[0].candidate.verification.accepted);
+  EXPECT_EQ(matcher.queued(), 1U);
+  // That closure anchors robot_b's frame: its next scan there is verified at once.
+  const auto candidates = matcher.matchTeammate("robot_b", theirs(8, 5.0));
+  const MatchCandidate* best = bestAccepted(candidates);
+  ASSERT_NE(best, nullptr);
+  EXPECT_EQ(best->keyframe, 0U);
 }
 
 TEST_F(PlaceMatcherTest, ScanContextFindsOwnLoopsAndReportsItsMethod) {
@@ -214,7 +288,7 @@ TEST_F(PlaceMatcherTest, HgmmRegistersMixturesAndVerifiesFromTheirTransform) {
   const Eigen::Isometry3f origin = Eigen::Isometry3f::Identity();
   for (const MixtureCandidates from : {MixtureCandidates::kScanContext, MixtureCandidates::kAll}) {
     SCOPED_TRACE(toString(from));
-    MatcherParams params;
+    MatcherParams params = atOnce();
     params.method = MatchMethod::kHgmm;
     params.hgmm.candidates = from;
     PlaceMatcher matcher(params, model_);
@@ -230,7 +304,8 @@ TEST_F(PlaceMatcherTest, HgmmRegistersMixturesAndVerifiesFromTheirTransform) {
     matcher.addOwn(std::move(a));
     matcher.addOwn(describe(1, room(layout_b, origin, 2)));
 
-    const auto candidates = matcher.matchTeammate(describe(7, room(layout_a, seen_from, 1)));
+    const auto candidates =
+        matcher.matchTeammate("robot_b", describe(7, room(layout_a, seen_from, 1)));
     const MatchCandidate* best = bestAccepted(candidates);
     ASSERT_NE(best, nullptr);
     EXPECT_EQ(best->keyframe, 0U);
@@ -291,13 +366,13 @@ TEST_F(PlaceMatcherTest, ATeammatesWordSetMustShareTheVocabularyAndBeWellFormed)
 TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
   for (const MatchMethod method : {MatchMethod::kFabmap, MatchMethod::kHistogram}) {
     SCOPED_TRACE(toString(method));
-    MatcherParams params;
+    MatcherParams params = atOnce();
     params.method = method;
     PlaceMatcher matcher(params, model_);
     matcher.addOwn(keyframe(matcher, 0, 0.0, 0));
     matcher.addOwn(keyframe(matcher, 1, 1.0, 1));
     // A teammate at the same instant: no exclusion window for teammates.
-    const auto candidates = matcher.matchTeammate(keyframe(matcher, 7, 1.0, 1));
+    const auto candidates = matcher.matchTeammate("robot_b", keyframe(matcher, 7, 1.0, 1));
     const MatchCandidate* best = bestAccepted(candidates);
     ASSERT_NE(best, nullptr);
     EXPECT_EQ(best->keyframe, 1U);
@@ -313,17 +388,18 @@ TEST_F(PlaceMatcherTest, TeammateQueriesSeeEveryPlaceAndAreNotKept) {
                                Pose3(Eigen::Translation3d(0.0, 3.0, 0.0)));
     ASSERT_TRUE(loop.odom_pose_to);
     EXPECT_DOUBLE_EQ(loop.odom_pose_to->translation().y(), 3.0);
-    EXPECT_TRUE(bestAccepted(matcher.matchTeammate(keyframe(matcher, 8, 1.0, 2))) == nullptr);
+    EXPECT_TRUE(bestAccepted(matcher.matchTeammate("robot_b", keyframe(matcher, 8, 1.0, 2))) ==
+                nullptr);
   }
 }
 
 TEST_F(PlaceMatcherTest, OwnKeyframesMeetTeammateScansKeptBeforeThem) {
-  PlaceMatcher matcher(MatcherParams{}, model_);
+  PlaceMatcher matcher(atOnce(), model_);
   matcher.addOwn(keyframe(matcher, 0, 0.0, 0));
   // robot_b scanned place 1 before this robot got there: no match yet, the scan is kept.
   DescribedKeyframe theirs = keyframe(matcher, 42, 1.0, 1);
   theirs.odom_pose = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));  // in robot_b's frame
-  EXPECT_EQ(bestAccepted(matcher.matchTeammate(theirs)), nullptr);
+  EXPECT_EQ(bestAccepted(matcher.matchTeammate("robot_b", theirs)), nullptr);
   matcher.keepTeammateScan("robot_b", theirs);
   EXPECT_EQ(matcher.keptScans(), 1U);
   EXPECT_EQ(matcher.places(), 1U);
@@ -361,7 +437,7 @@ TEST_F(PlaceMatcherTest, PlacesCompactedAndMadeReadyAgainVerifyAsBefore) {
   // others compacted, completed again when ranked): the same candidates and figures.
   std::vector<std::vector<MatchCandidate>> results[2];
   for (const int complete : {100, 1}) {
-    MatcherParams params;
+    MatcherParams params = atOnce();
     params.complete_places = complete;
     PlaceMatcher matcher(params, model_);
     auto& out = results[complete == 1];
@@ -369,7 +445,7 @@ TEST_F(PlaceMatcherTest, PlacesCompactedAndMadeReadyAgainVerifyAsBefore) {
       out.push_back(matcher.addOwn(keyframe(matcher, id, 40.0 * double(id), int(id % 3))));
     }
     matcher.keepTeammateScan("robot_b", keyframe(matcher, 42, 1.0, 1));
-    out.push_back(matcher.matchTeammate(keyframe(matcher, 7, 300.0, 2)));
+    out.push_back(matcher.matchTeammate("robot_b", keyframe(matcher, 7, 300.0, 2)));
     out.push_back(matcher.matchKeptScans(keyframe(matcher, 8, 301.0, 1)));
   }
   ASSERT_EQ(results[0].size(), results[1].size());

@@ -40,6 +40,25 @@ struct MixtureMatchParams {
   std::vector<std::string> validate() const;
 };
 
+/// Where a query's candidates come from (PoseGate, VerificationQueue). With a pose prior (own
+/// loops from odometry; a teammate's keyframes once an accepted closure anchors its frame) only
+/// places within reach_m of the predicted position plus the drift allowance (1 m +
+/// own_loop_gate_m_per_m x the path since the anchor, at most max_drift_m) are candidates, and
+/// the gated_candidates best-ranked of them are verified at once. Without one, each query's
+/// max_candidates best-ranked places wait in a queue and prior_free_verifications_per_s of
+/// them, the best-scored first, are verified per second of mission time.
+struct SearchParams {
+  double reach_m = 15.0;
+  double max_drift_m = 60.0;
+  int gated_candidates = 3;
+  /// 0: no budget, each prior-free query verifies its candidates at once (the cost then grows
+  /// with the places and the teammates).
+  double prior_free_verifications_per_s = 2.0;
+  /// Queued candidates older than this (mission time) are dropped unverified.
+  double prior_free_horizon_s = 60.0;
+  std::vector<std::string> validate() const;
+};
+
 struct MatcherParams {
   MatchMethod method = MatchMethod::kFabmap;
   /// Vocabulary and Chow-Liu model directory; empty = the model shipped with the package.
@@ -49,8 +68,9 @@ struct MatcherParams {
   int min_correspondences = 3;
   /// Own keyframes younger than this are never matched against (temporal exclusion window).
   double loop_exclusion_s = 30.0;
-  /// Best-ranked places of each query that are geometrically verified. Verification is cheap
-  /// (~6 ms on a simulated keyframe) and in an aliased mine the true place is rarely first.
+  /// Best-ranked places of each query without a pose prior that are verified (queued when
+  /// search.prior_free_verifications_per_s is set): in an aliased mine the true place is rarely
+  /// first.
   int max_candidates = 20;
   /// FAB-MAP's decision rule: of those, only places whose posterior is at least this are
   /// verified (0: the best-ranked max_candidates, whatever their probability).
@@ -67,9 +87,12 @@ struct MatcherParams {
   /// their search trees, so the Matcher's memory grows by that per place instead of ~1.5 MB.
   int complete_places = 100;
   /// Own loop closures must agree with odometry within 1 m + this x the path between the two
-  /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the gate off.
+  /// keyframes, and 0.2 rad + own_loop_gate_rad_per_m x path; 0 turns the check off, and with
+  /// it the pose gate of the search (which takes this as odometry's drift per metre).
   double own_loop_gate_m_per_m = 0.1;
   double own_loop_gate_rad_per_m = 0.01;
+  /// Where candidates come from, and the verification budget.
+  SearchParams search;
   /// Loop-closure verification: the acceptance tests (minimum inliers, fitness, wall overlap,
   /// free space) and how the scans are aligned; the same struct bench_place_recognition and
   /// eval_place_recognition measure.

@@ -92,6 +92,9 @@ class MatcherStage {
   /// closure in `out`.
   void closeLoop(const std::vector<MatchCandidate>& candidates, const std::string& query_robot,
                  KeyframeId query, const std::optional<Pose3>& query_odom_pose, Output& out) const;
+  /// The queued candidates the verification budget now pays for; each accepted one as a loop
+  /// closure in `out`.
+  void verifyQueued(Output& out);
   template <class F>
   auto measured(const char* stage, F&& work);
 

@@ -1,9 +1,11 @@
 // Loop-closure detection for one robot: its keyframes become places (FAB-MAP 2.0 or the
 // histogram baseline); an own keyframe is matched against older own places and against the
-// teammates' scans kept so far, a teammate's scan against every own place; the best-ranked
-// candidates are verified geometrically.
+// teammates' scans kept so far, a teammate's scan against every own place. Candidates inside a
+// pose gate (PoseGate) are verified at once, a few of them; those found without a pose prior
+// are verified within a budget (VerificationQueue).
 #pragma once
 
+#include <algorithm>
 #include <deque>
 #include <functional>
 #include <map>
@@ -24,6 +26,8 @@
 #include "ccir_mapping/core/place_recognition/histogram_matcher.h"
 #include "ccir_mapping/core/place_recognition/matcher_params.h"
 #include "ccir_mapping/core/place_recognition/place_model.h"
+#include "ccir_mapping/core/place_recognition/pose_gate.h"
+#include "ccir_mapping/core/place_recognition/verification_queue.h"
 #include "ccir_mapping/core/pose_graph/loop_closure.h"
 #include "ccir_mapping/core/registration/scan_verifier.h"
 
@@ -131,43 +135,90 @@ class PlaceMatcher {
   std::vector<TeammateCorrespondence> teammateCorrespondences(const WordSet& words) const;
 
   /// Matches an own keyframe against own places at least loop_exclusion_s older, then adds it
-  /// as a place. Returns the verified candidates, best-ranked first; with odometry on both
-  /// keyframes, a verified closure that moves the keyframe farther from where odometry puts it
-  /// than the drift gate allows is not accepted (perceptual aliasing).
+  /// as a place. With its odometry pose, only places in the pose gate are candidates, and the
+  /// search.gated_candidates best-ranked are verified; without, the max_candidates best.
+  /// Returns the verified candidates, best-ranked first; a verified closure that moves the
+  /// keyframe farther from where odometry puts it than the drift gate allows is not accepted
+  /// (perceptual aliasing). Accepted ones anchor the gate.
   std::vector<MatchCandidate> addOwn(DescribedKeyframe keyframe);
 
-  /// Matches a teammate's keyframe against every own place; it does not become a place.
-  std::vector<MatchCandidate> matchTeammate(const DescribedKeyframe& keyframe) const;
+  /// Matches a teammate's keyframe against every own place (it does not become a place): those
+  /// in the gate of an accepted closure with that teammate are verified at once and returned,
+  /// the others queued (or, without a budget, verified and returned too).
+  std::vector<MatchCandidate> matchTeammate(const std::string& robot,
+                                            const DescribedKeyframe& keyframe);
 
   /// Keeps a teammate's scan, so that own keyframes made later are matched against it.
   void keepTeammateScan(const std::string& robot, DescribedKeyframe keyframe);
   std::size_t keptScans() const;
 
-  /// Matches an own keyframe (not yet added) against the kept teammate scans.
-  std::vector<MatchCandidate> matchKeptScans(const DescribedKeyframe& keyframe) const;
+  /// Matches an own keyframe (not yet added) against the kept teammate scans, as matchTeammate.
+  std::vector<MatchCandidate> matchKeptScans(const DescribedKeyframe& keyframe);
+
+  /// A candidate verified from the queue: this robot's keyframe `own` and the teammate's.
+  struct QueuedMatch {
+    KeyframeId own = 0;
+    MatchCandidate candidate;
+  };
+  /// Verifies the queued candidates the budget pays for up to the newest stamp seen.
+  std::vector<QueuedMatch> verifyQueued();
+  /// Candidates waiting for the budget, and those dropped unverified after the horizon.
+  std::size_t queued() const;
+  std::size_t expired() const;
 
  private:
   class PlaceSet;
 
-  /// Verified candidates among `set`'s places accepted by `eligible`, best-ranked first;
-  /// `query_is_from`: the query is the own keyframe ("from") rather than the place.
-  /// `motion`: null for a uniform prior over the places, else the posterior of the query before
-  /// along the same path (empty at first) for FAB-MAP's motion prior, replaced by this one's.
-  std::vector<MatchCandidate> match(PlaceSet& set, const DescribedKeyframe& query,
-                                    const std::function<bool(const DescribedKeyframe&)>& eligible,
-                                    bool query_is_from,
-                                    std::vector<double>* motion = nullptr) const;
   /// A place ranked by a method, with the pose of "to" in "from" its ranking found (hgmm).
   struct Ranked {
     std::size_t index = 0;
     double score = 0.0;
     std::optional<Pose3> initial;
+    int correspondences = 0;  // c_k
   };
+  /// `set`'s places accepted by `eligible`, ranked by the method, best first; `query_is_from`:
+  /// the query is the own keyframe ("from") rather than the place. `motion`: null for a
+  /// uniform prior over the places, else the posterior of the query before along the same path
+  /// (empty at first) for FAB-MAP's motion prior, replaced by this one's.
+  std::vector<Ranked> rank(PlaceSet& set, const DescribedKeyframe& query,
+                           const std::function<bool(const DescribedKeyframe&)>& eligible,
+                           bool query_is_from, std::vector<double>* motion,
+                           double* new_place_probability) const;
+  std::vector<MatchCandidate> verify(PlaceSet& set, const DescribedKeyframe& query,
+                                     const std::vector<Ranked>& ranked, bool query_is_from,
+                                     double new_place_probability) const;
+  /// The first gated_candidates of `ranked` in the gate (gate[i] <= 1), the nearest to where
+  /// the prior puts them first.
+  std::vector<Ranked> nearestGated(const std::vector<Ranked>& ranked,
+                                   const std::vector<double>& gate) const;
+  /// A teammate query's ranking split: the nearest gated places verified now, the rest of the
+  /// first max_candidates queued (or verified now without a budget). `own_of`: this robot's
+  /// keyframe of a ranked place's pair; `teammate_of`: the teammate's.
+  std::vector<MatchCandidate> searchTeammates(
+      PlaceSet& set, const DescribedKeyframe& query, const std::vector<Ranked>& ranked,
+      const std::vector<double>& gate, bool query_is_from, double new_place_probability,
+      const std::function<KeyframeId(const Ranked&)>& own_of,
+      const std::function<std::pair<std::string, KeyframeId>(const Ranked&)>& teammate_of);
+  /// gate[i]: for the places of `set` (in robot `robot`'s frame) near where `robot`'s anchors
+  /// predict `query`, the smallest PoseGate::ratio (the others are left as they were; <= 1:
+  /// admitted). `query_is_own` when the query is this robot's keyframe and the places `robot`'s,
+  /// else the query is `robot`'s and the places this robot's.
+  void gateRatios(const PlaceSet& set, const std::string& robot, const DescribedKeyframe& query,
+                  bool query_is_own, std::vector<double>& gate) const;
+  /// An accepted closure between own keyframe `own` and `other` (of `robot`, "" for own) as a
+  /// gate anchor; `relative`: the pose of `other` in `own`.
+  void anchor(const std::string& robot, const DescribedKeyframe& own,
+              const DescribedKeyframe& other, const Pose3& relative);
+  bool gateOn() const { return params_.own_loop_gate_m_per_m > 0.0; }
+  void sawStamp(Stamp stamp) { newest_stamp_ = std::max(newest_stamp_, stamp); }
   /// Method hgmm: the places whose mixtures registered to the query's, most similar first.
   std::vector<Ranked> rankByMixtures(const PlaceSet& set, const DescribedKeyframe& query,
                                      const std::function<bool(const DescribedKeyframe&)>& eligible,
                                      bool query_is_from) const;
   void gateByOdometry(const DescribedKeyframe& query, MatchCandidate& candidate) const;
+  const DescribedKeyframe& ownPlace(KeyframeId id) const;
+  const DescribedKeyframe* place(const PlaceSet& set, const std::string& robot,
+                                 KeyframeId id) const;
   /// The place's scan, complete for verification (ScanVerifier::complete).
   const registration::PreparedScan& ready(PlaceSet& set, std::size_t index) const;
   /// Marks the place as used last; the least recently used beyond complete_places are
@@ -181,6 +232,9 @@ class PlaceMatcher {
   FabMapModel fabmap_model_;
   std::unique_ptr<PlaceSet> own_;
   std::unique_ptr<PlaceSet> kept_;  // teammates' scans
+  PoseGate gate_;
+  std::optional<VerificationQueue> queue_;  // without a budget: none
+  Stamp newest_stamp_ = 0;
   /// Teammates' word sets by robot and keyframe.
   std::map<std::string, std::map<KeyframeId, WordSet>> teammate_words_;
   double path_m_ = 0.0;  // odometry path length of the own keyframes so far
