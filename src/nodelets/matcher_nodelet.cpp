@@ -41,6 +41,8 @@ class MatcherNodelet final : public PipelineNodelet {
     subscribe(topics::kKeyframes, topics::kKeyframeQueueSize, &MatcherNodelet::onKeyframe);
     subscribe(topics::kInboxFeatures, topics::kMessageQueueSize, &MatcherNodelet::onPeerFeatures);
     subscribe(topics::kTeammateScans, topics::kKeyframeQueueSize, &MatcherNodelet::onPeerScan);
+    subscribe(topics::kInboxLoopClosures, topics::kLoopClosureQueueSize,
+              &MatcherNodelet::onPeerLoopClosure);
   }
 
   const std::string& robot() const { return settings_.frames.robot_name; }
@@ -105,6 +107,11 @@ class MatcherNodelet final : public PipelineNodelet {
                                    conversions::toStamp(keyframe.header.stamp), scan->first,
                                    scan->second, keyframe.drawn_from_mixture),
             keyframe.header);
+  }
+
+  void onPeerLoopClosure(const LoopClosure& msg) {
+    core::pose_graph::LoopClosureData loop;  // a malformed one: the Backend reports it
+    if (conversions::toLoopClosure(msg, &loop)) stage_->onTeammateClosure(loop);
   }
 
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) override {

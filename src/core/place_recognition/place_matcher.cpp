@@ -416,6 +416,16 @@ void PlaceMatcher::anchor(const std::string& robot, const DescribedKeyframe& own
   gate_.addAnchor(robot, a);
 }
 
+void PlaceMatcher::addTeammateClosure(const std::string& self,
+                                      const pose_graph::LoopClosureData& loop) {
+  if (loop.robot_to != self || loop.robot_from == self || !loop.odom_pose_from) return;
+  const DescribedKeyframe* own = place(*own_, "", loop.keyframe_to);
+  if (!own) return;
+  DescribedKeyframe theirs;
+  theirs.odom_pose = loop.odom_pose_from;
+  anchor(loop.robot_from, *own, theirs, loop.relative.inverse());
+}
+
 void PlaceMatcher::gateRatios(const PlaceSet& set, const std::string& robot,
                               const DescribedKeyframe& query, bool query_is_own,
                               std::vector<double>& gate) const {
@@ -503,6 +513,7 @@ std::vector<MatchCandidate> PlaceMatcher::searchTeammates(
         continue;
       }
       VerificationQueue::Entry e;
+      e.rank = static_cast<int>(prior_free - 1);
       e.score = r.score;
       e.queued = newest_stamp_;
       e.own = own_of(r);

@@ -33,10 +33,15 @@ std::vector<VerificationQueue::Entry> VerificationQueue::release(Stamp now) {
 
   const auto paid = std::min(entries_.size(), static_cast<std::size_t>(std::floor(tokens_)));
   if (paid == 0) return {};
-  // Best score first; of equal scores the newest (a teammate's latest scans are the likeliest
-  // to meet this robot's next keyframes too).
+  // Each query's best-ranked first, then the newest: scores are not comparable across queries
+  // (a FAB-MAP posterior spreads over whatever the query resembles), ranks are, and the robots'
+  // latest keyframes are the likeliest to meet again. On the demo missions of seeds 7-10 this
+  // found the team transforms as early as verifying every query's candidates at once, where
+  // the best score first was up to 5 s later.
   const auto better = [](const Entry& a, const Entry& b) {
-    return a.score != b.score ? a.score > b.score : a.queued > b.queued;
+    if (a.rank != b.rank) return a.rank < b.rank;
+    if (a.queued != b.queued) return a.queued > b.queued;
+    return a.score > b.score;
   };
   std::partial_sort(entries_.begin(), entries_.begin() + static_cast<std::ptrdiff_t>(paid),
                     entries_.end(), better);

@@ -158,6 +158,7 @@ void RobotPipeline::onMessage(double now_s, const TeamMessage& message) {
   } else if (const auto* receipt = std::get_if<routing::Receipt>(&message)) {
     route(now_s, broker_.onReceipt(*receipt));
   } else if (const auto* loop = std::get_if<pose_graph::LoopClosureData>(&message)) {
+    matcher_.onTeammateClosure(*loop);
     backend_->addTeammateLoop(*loop);
   } else {
     onScan(now_s, *std::get<std::shared_ptr<const routing::WireScan>>(message));

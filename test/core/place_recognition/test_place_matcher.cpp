@@ -216,6 +216,30 @@ TEST_F(PlaceMatcherTest, TeammateCandidatesWaitForTheBudgetAndTheirClosuresGateT
   EXPECT_EQ(best->keyframe, 0U);
 }
 
+TEST_F(PlaceMatcherTest, AClosureATeammateFoundAnchorsItsFrameToo) {
+  PlaceMatcher matcher(MatcherParams{}, model_);
+  DescribedKeyframe place = keyframe(matcher, 0, 0.0, 1);
+  place.odom_pose = Pose3::Identity();
+  matcher.addOwn(place);
+  auto theirs = [&](KeyframeId id) {
+    DescribedKeyframe k = keyframe(matcher, id, 2.0, 1);
+    k.odom_pose = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));
+    return k;
+  };
+  pose_graph::LoopClosureData loop;
+  loop.robot_from = "robot_c";  // robot_c's keyframe 7 is where this robot's keyframe 0 is
+  loop.keyframe_from = 7;
+  loop.robot_to = "robot_a";
+  loop.keyframe_to = 0;
+  loop.odom_pose_from = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));
+  matcher.addTeammateClosure("robot_b", loop);  // not with this robot: ignored
+  matcher.addTeammateClosure("robot_a", loop);
+  EXPECT_TRUE(matcher.matchTeammate("robot_b", theirs(8)).empty()) << "robot_b is not anchored";
+  const MatchCandidate* best = bestAccepted(matcher.matchTeammate("robot_c", theirs(9)));
+  ASSERT_NE(best, nullptr) << "robot_c's frame is: verified at once";
+  EXPECT_EQ(best->keyframe, 0U);
+}
+
 TEST_F(PlaceMatcherTest, ScanContextFindsOwnLoopsAndReportsItsMethod) {
   MatcherParams params;
   params.method = MatchMethod::kScanContext;

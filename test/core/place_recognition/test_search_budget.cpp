@@ -70,8 +70,9 @@ TEST(PoseGate, AllowsTheDriftOfThePathSinceTheAnchorUpToItsBound) {
   EXPECT_TRUE(gate.anchors("robot_c").empty());
 }
 
-VerificationQueue::Entry entry(double score, double queued_s, KeyframeId own = 0) {
+VerificationQueue::Entry entry(double score, double queued_s, KeyframeId own = 0, int rank = 0) {
   VerificationQueue::Entry e;
+  e.rank = rank;
   e.score = score;
   e.queued = fromSeconds(queued_s);
   e.own = own;
@@ -96,6 +97,19 @@ TEST(VerificationQueue, ReleasesTheBestWithinTheBudgetOfMissionTime) {
   EXPECT_TRUE(queue.release(fromSeconds(10.0)).empty());
   EXPECT_THROW(VerificationQueue(0.0, 60.0), std::invalid_argument);
   EXPECT_THROW(VerificationQueue(1.0, 0.0), std::invalid_argument);
+}
+
+TEST(VerificationQueue, EachQuerysBestComesFirstThenTheNewest) {
+  VerificationQueue queue(1.0, 60.0);
+  queue.push(entry(0.9, 0.0, 1, /*rank=*/1));  // a query's second, however well scored
+  queue.push(entry(0.1, 0.0, 2, /*rank=*/0));
+  queue.push(entry(0.1, 1.0, 3, /*rank=*/0));  // another query's best, newer
+  queue.release(fromSeconds(1.0));
+  std::vector<KeyframeId> order;
+  for (double t : {2.0, 3.0, 4.0}) {
+    for (const auto& e : queue.release(fromSeconds(t))) order.push_back(e.own);
+  }
+  EXPECT_EQ(order, (std::vector<KeyframeId>{3, 2, 1}));
 }
 
 TEST(VerificationQueue, DropsWhatWaitedLongerThanTheHorizon) {

@@ -46,7 +46,7 @@ struct MixtureMatchParams {
 /// own_loop_gate_m_per_m x the path since the anchor, at most max_drift_m) are candidates, and
 /// the gated_candidates best-ranked of them are verified at once. Without one, each query's
 /// max_candidates best-ranked places wait in a queue and prior_free_verifications_per_s of
-/// them, the best-scored first, are verified per second of mission time.
+/// them, each query's best-ranked first, are verified per second of mission time.
 struct SearchParams {
   double reach_m = 15.0;
   double max_drift_m = 60.0;

@@ -81,6 +81,11 @@ class MatcherStage {
   /// A teammate's word set: c_k of the own places, kept for the own keyframes to come; refused
   /// when it is this robot's own (a bridge loop), of another vocabulary or malformed.
   Output onTeammateWords(const KeyframeWords& words);
+  /// A loop closure a teammate found with one of this robot's keyframes: a pose prior for the
+  /// search with that teammate (PlaceMatcher::addTeammateClosure).
+  void onTeammateClosure(const pose_graph::LoopClosureData& loop) {
+    matcher_.addTeammateClosure(robot_, loop);
+  }
   /// A teammate's scan (sensor frame, odometry pose in the teammate's frame; drawn from the
   /// mixture it crossed the link as): matched against every own place, then kept so that own
   /// keyframes made later are matched against it; refused when it is this robot's own.

@@ -155,6 +155,12 @@ class PlaceMatcher {
   /// Matches an own keyframe (not yet added) against the kept teammate scans, as matchTeammate.
   std::vector<MatchCandidate> matchKeptScans(const DescribedKeyframe& keyframe);
 
+  /// A closure a teammate found between one of its keyframes ("from", with its odometry pose)
+  /// and one of this robot's places ("to", robot `self`): it anchors the gate for that teammate,
+  /// so that this robot need not find a first closure with it through the budget. Others (with
+  /// a third robot, or without the pose) are ignored.
+  void addTeammateClosure(const std::string& self, const pose_graph::LoopClosureData& loop);
+
   /// A candidate verified from the queue: this robot's keyframe `own` and the teammate's.
   struct QueuedMatch {
     KeyframeId own = 0;

@@ -1,5 +1,5 @@
 // Candidate pairs found without a pose prior (a teammate no closure has anchored yet, or places
-// outside every gate), verified within a budget: the best-scored first, at most a rate per
+// outside every gate), verified within a budget: each query's best first, at most a rate per
 // second of mission time, none after waiting longer than a horizon. This bounds what an aliased
 // mine costs: each query there ranks dozens of look-alike places.
 #pragma once
@@ -14,8 +14,10 @@ namespace ccir_mapping::core::place_recognition {
 
 class VerificationQueue {
  public:
-  /// One pair: this robot's keyframe and a teammate's kept scan, as ranked by the query.
+  /// One pair: this robot's keyframe and a teammate's kept scan, as ranked by the query (0:
+  /// its best).
   struct Entry {
+    int rank = 0;
     double score = 0.0;
     Stamp queued = 0;
     KeyframeId own = 0;
