@@ -267,36 +267,72 @@ def scale(args):
     print("\n".join(lines))
 
 
-def long_mission(args):
-    """A long 3-robot mission: CPU and resident memory per robot over time."""
-    report = run_team(args, os.path.join(args.out, "long"), [
-        "--world", "mine", "--robots", "3", "--seed", args.seeds.split(",")[0],
-        "--duration-s", str(args.duration_s), "--overlap", str(args.overlap),
-        "--budget-bytes-per-s", str(args.budget_bytes_per_s), "--mode", "ccir",
-        "--series-period-s", "10"])
+def per_minute(report, robot):
+    """One robot's mission minutes: CPU per keyframe (and by stage), resident memory (the
+    process's, shared evenly: run_team runs every robot in one), known volume, places,
+    verifications and the 99th percentile of what its loop closures waited for the budget."""
     n = len(report["robots"])
+    work = robot["work_series"]
+
+    def at(series, t):  # the row of a [t, value, ...] series sampled with the work series
+        return min(series, key=lambda row: abs(row[0] - t))[1] if t > 0 else 0.0
+    # The samples closest to each whole minute (a sample lands within a simulation step of it).
+    rows = []
+    for minute in range(1, int(work[-1]["t"] // 60 + 1e-6) + 1):
+        rows.append(next(w for w in work if w["t"] >= 60.0 * minute - 0.05))
+    if not rows or rows[-1]["t"] < work[-1]["t"] - 1.0:
+        rows.append(work[-1])  # a last part-minute
+    minutes = []
+    before = {"t": 0.0, "keyframes": 0, "verifications": 0, "stage_cpu_s": {}}
+    for row in rows:
+        keyframes = row["keyframes"] - before["keyframes"]
+        cpu_s = at(robot["cpu_series"], row["t"]) - at(robot["cpu_series"], before["t"])
+        waits = sorted(w for t, w in robot["closure_waits"] if before["t"] < t <= row["t"])
+        minutes.append({
+            "minute": len(minutes) + 1,
+            "t": row["t"],
+            "cpu_cores": cpu_s / (row["t"] - before["t"]),
+            "cpu_s_per_keyframe": cpu_s / keyframes if keyframes else None,
+            "stage_cpu_s_per_keyframe": {
+                k: (v - before["stage_cpu_s"].get(k, 0.0)) / keyframes
+                for k, v in row["stage_cpu_s"].items()} if keyframes else {},
+            "rss_mb": at(report["memory_series"], row["t"]) / 1e6 / n,
+            "known_m3": at(robot["map_series"], row["t"]),
+            "places": row["places"],
+            "verifications": row["verifications"] - before["verifications"],
+            "closure_latency_p99_s": waits[min(len(waits) - 1, int(0.99 * len(waits)))]
+            if waits else None,
+        })
+        before = row
+    return minutes
+
+
+def long_mission(args):
+    """Long missions (run_team, CCIR): per robot and mission minute, CPU per keyframe and by
+    stage, resident memory, known volume, places, verifications and closure latency; OUT/
+    summary.json and a plot."""
+    robots = int(args.robots.split(",")[0])
+    summary = {"robots": []}
     fig, axes = plt.subplots(1, 3, figsize=(15, 3.5))
-    summary = {"robots": {}}
-    for r in report["robots"]:
-        rows = r["cpu_series"]
-        t = [b[0] for a, b in zip(rows, rows[1:])]
-        share = [(b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(rows, rows[1:])]
-        axes[0].plot(t, share, label=r["name"])
-        axes[2].plot([x[0] for x in r["map_series"]], [x[1] for x in r["map_series"]],
-                     label=r["name"])
-        summary["robots"][r["name"]] = {
-            "keyframes": r["keyframes"], "mean_core_share": rows[-1][1] / rows[-1][0],
-            "core_share_last_minute": (rows[-1][1] - next(c for tt, c in reversed(rows)
-                                                          if tt <= rows[-1][0] - 60)) / 60,
-            "stage_cpu_s": r["stage_cpu_s"], "map": r["map"]}
-    memory = report["memory_series"]
-    axes[1].plot([m[0] for m in memory], [m[1] / 1e6 / n for m in memory])
-    at5 = next((m[1] for m in memory if m[0] >= 300), memory[-1][1])
-    summary["resident_mb_per_robot"] = {"at_5_min": at5 / 1e6 / n,
-                                        "at_end": memory[-1][1] / 1e6 / n}
-    summary["duration_s"] = report["duration_s"]
-    for ax, title in zip(axes, ["CPU per robot (cores, 10 s windows)", "resident MB per robot",
-                                "known volume, m³"]):
+    for seed in args.seeds.split(","):
+        report = run_team(args, os.path.join(args.out, "seed_%s" % seed), [
+            "--world", "mine", "--mine-pillars-x", str(args.pillars),
+            "--mine-pillars-y", str(args.pillars), "--robots", str(robots), "--seed", seed,
+            "--duration-s", str(args.duration_s), "--overlap", str(args.overlap),
+            "--budget-bytes-per-s", str(args.budget_bytes_per_s), "--mode", "ccir",
+            "--series-period-s", "10"])
+        for r in report["robots"]:
+            minutes = per_minute(report, r)
+            name = r["name"] if len(args.seeds.split(",")) == 1 else "%s/%s" % (seed, r["name"])
+            summary["robots"].append({
+                "name": name, "seed": int(seed), "keyframes": r["keyframes"],
+                "cpu_cores_mean": r["cpu_series"][-1][1] / report["duration_s"],
+                "stage_cpu_s": r["stage_cpu_s"], "ate_m": r["ate_m"], "minutes": minutes})
+            t = [m["t"] for m in minutes]
+            axes[0].plot(t, [m["cpu_s_per_keyframe"] for m in minutes], label=name)
+            axes[1].plot(t, [m["rss_mb"] for m in minutes], label=name)
+            axes[2].plot(t, [m["known_m3"] for m in minutes], label=name)
+    for ax, title in zip(axes, ["CPU s per keyframe", "resident MB per robot", "known volume, m³"]):
         ax.set_title(title)
         ax.set_xlabel("mission s")
         ax.set_ylim(bottom=0)
@@ -304,9 +340,13 @@ def long_mission(args):
     fig.tight_layout()
     fig.savefig(os.path.join(args.out, "long_mission.png"), dpi=80)
     plt.close(fig)
-    with open(os.path.join(args.out, "results.md"), "w") as f:
-        f.write("```\n" + json.dumps(summary, indent=2) + "\n```\n")
-    print(json.dumps(summary, indent=2))
+    with open(os.path.join(args.out, "summary.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+    for r in summary["robots"]:
+        print("%s: %.2f cores, CPU s per keyframe by minute %s" % (
+            r["name"], r["cpu_cores_mean"],
+            " ".join("%.2f" % m["cpu_s_per_keyframe"] if m["cpu_s_per_keyframe"] else "-"
+                     for m in r["minutes"])))
 
 
 def main():
@@ -323,7 +363,7 @@ def main():
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--config", help="a robot YAML for run_team --config (stage parameters)")
     # scale
-    parser.add_argument("--pillars", type=int, default=6)
+    parser.add_argument("--pillars", type=int, default=6, help="scale, long_mission: mine pillars")
     parser.add_argument("--start-window-s", type=float, default=20.0)
     parser.add_argument("--radio-range-m", type=float, default=30.0)
     parser.add_argument("--max-peers", type=int, default=8)

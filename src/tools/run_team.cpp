@@ -368,6 +368,23 @@ Json::Value robotJson(const runner::RobotResult& r, const runner::RunnerParams& 
     v.append(round3(cpu));
     j["cpu_series"].append(v);
   }
+  j["work_series"] = Json::arrayValue;
+  for (const auto& w : r.work_series) {
+    Json::Value v;
+    v["t"] = w.t;
+    v["keyframes"] = Json::UInt64(w.keyframes);
+    v["places"] = Json::UInt64(w.places);
+    v["verifications"] = Json::UInt64(w.verifications);
+    for (const auto& [stage, s] : w.stage_cpu_s) v["stage_cpu_s"][stage] = round3(s);
+    j["work_series"].append(v);
+  }
+  j["closure_waits"] = Json::arrayValue;
+  for (const auto& [t, waited] : r.closure_waits) {
+    Json::Value v(Json::arrayValue);
+    v.append(round3(t));
+    v.append(round3(waited));
+    j["closure_waits"].append(v);
+  }
   return j;
 }
 

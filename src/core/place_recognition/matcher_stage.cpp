@@ -91,6 +91,7 @@ void MatcherStage::closeLoop(const std::vector<MatchCandidate>& candidates,
   if (const MatchCandidate* best = bestAccepted(candidates)) {
     out.loop_closures.push_back(
         matcher_.loopClosure(robot_, *best, query_robot, query, query_odom_pose));
+    out.waited_s.push_back(0.0);
   }
 }
 
@@ -100,6 +101,7 @@ void MatcherStage::verifyQueued(Output& out) {
   for (const auto& m : matches) {
     if (!m.candidate.verification.accepted) continue;
     out.loop_closures.push_back(matcher_.loopClosure(robot_, m.candidate, robot_, m.own));
+    out.waited_s.push_back(m.waited_s);
   }
 }
 

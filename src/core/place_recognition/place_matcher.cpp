@@ -587,6 +587,7 @@ std::vector<PlaceMatcher::QueuedMatch> PlaceMatcher::verifyQueued() {
     if (own == own_->index_of.end() || kept == kept_->index_of.end()) continue;
     QueuedMatch m;
     m.own = e.own;
+    m.waited_s = toSeconds(newest_stamp_ - e.queued);
     MatchCandidate& c = m.candidate;
     c.robot = e.teammate;
     c.keyframe = e.teammate_keyframe;

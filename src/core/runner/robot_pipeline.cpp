@@ -100,6 +100,8 @@ void RobotPipeline::route(double now_s, const pr::MatcherStage::Output& out) {
     send(now_s, "", *out.features);
   }
   for (const auto& c : out.correspondences) broker_.onCorrespondences(c.peer, c.counts);
+  verifications_ += out.verified;
+  for (const double waited_s : out.waited_s) closure_waits_.emplace_back(now_s, waited_s);
   for (const auto& loop : out.loop_closures) {
     (loop.robot_to == name_ ? own_loops_ : inter_loops_) += 1;
     if (backend_->addOwnLoop(loop)) send(now_s, "", loop);

@@ -316,6 +316,8 @@ TeamResult TeamRunner::run(const Progress& progress) {
         r.map_series.push_back({t, stats.known_volume_m3, stats.entropy_bits});
         r.cpu_series.emplace_back(
             t, r.pipeline_cpu_s + robots[i]->backgroundCpu() + feeds[i]->cpuSeconds());
+        r.work_series.push_back({t, keyframes[i].size(), robots[i]->places(),
+                                 robots[i]->verifications(), robots[i]->stageCpu()});
         for (const auto& estimate : robots[i]->snapshot().team) {
           const int j = static_cast<int>(std::find(names.begin(), names.end(), estimate.peer) -
                                          names.begin());
@@ -340,6 +342,7 @@ TeamResult TeamRunner::run(const Progress& progress) {
     r.recording_cpu_s = feeds[i]->cpuSeconds();
     r.pipeline_cpu_s += robot.backgroundCpu();
     r.stage_cpu_s = robot.stageCpu();
+    r.closure_waits = robot.closureWaits();
     r.dropped_scans = feeds[i]->droppedScans();
     r.own_loops = robot.ownLoops();
     r.inter_robot_loops = robot.interRobotLoops();

@@ -207,6 +207,7 @@ TEST_F(PlaceMatcherTest, TeammateCandidatesWaitForTheBudgetAndTheirClosuresGateT
   EXPECT_EQ(released[0].own, 0U) << "the best-scored pair first";
   EXPECT_EQ(released[0].candidate.robot, "robot_b");
   EXPECT_EQ(released[0].candidate.keyframe, 7U);
+  EXPECT_DOUBLE_EQ(released[0].waited_s, 2.0) << "queued at 2 s, verified at 4 s";
   ASSERT_TRUE(released[0].candidate.verification.accepted);
   EXPECT_EQ(matcher.queued(), 1U);
   // That closure anchors robot_b's frame: its next scan there is verified at once.

@@ -44,8 +44,10 @@ class MatcherStage {
     /// An own keyframe's word set, for every teammate.
     std::optional<KeyframeWords> features;
     std::vector<KeyframeCorrespondences> correspondences;
-    /// The best verified candidate of each query, as a loop closure.
+    /// The best verified candidate of each query, as a loop closure, and the mission seconds
+    /// each waited for the verification budget after both its keyframes were here (0: at once).
     std::vector<pose_graph::LoopClosureData> loop_closures;
+    std::vector<double> waited_s;
     /// Inputs refused, by kind ("features (other vocabulary)", "scans (own)", ...).
     std::vector<Notice> refused;
     /// Candidates verified geometrically.

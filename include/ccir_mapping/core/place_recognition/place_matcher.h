@@ -165,6 +165,7 @@ class PlaceMatcher {
   struct QueuedMatch {
     KeyframeId own = 0;
     MatchCandidate candidate;
+    double waited_s = 0.0;  // mission seconds in the queue
   };
   /// Verifies the queued candidates the budget pays for up to the newest stamp seen.
   std::vector<QueuedMatch> verifyQueued();

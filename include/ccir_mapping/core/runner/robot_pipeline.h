@@ -61,6 +61,13 @@ class RobotPipeline {
   int ownLoops() const { return own_loops_; }
   int interRobotLoops() const { return inter_loops_; }
   const std::map<std::string, std::uint64_t>& refusals() const { return refusals_; }
+  /// Places the Matcher holds (own keyframes and kept teammates' scans) and candidates it verified.
+  std::size_t places() const {
+    return matcher_.matcher().places() + matcher_.matcher().keptScans();
+  }
+  std::uint64_t verifications() const { return verifications_; }
+  /// Mission time of each loop closure found, with what it waited for the verification budget.
+  const std::vector<std::pair<double, double>>& closureWaits() const { return closure_waits_; }
   /// CPU seconds by stage, as the nodelets report them on diagnostics ("describe", "match",
   /// "insert", "rebuild", "optimise", "footprint", "route", "codec").
   std::map<std::string, double> stageCpu() const;
@@ -103,6 +110,8 @@ class RobotPipeline {
   backend::BackendSnapshot snapshot_;
   std::vector<Outgoing> outbox_;
   int own_loops_ = 0, inter_loops_ = 0;
+  std::uint64_t verifications_ = 0;
+  std::vector<std::pair<double, double>> closure_waits_;
   std::map<std::string, std::uint64_t> refusals_;
 };
 

@@ -65,6 +65,17 @@ struct RobotResult {
   /// t, CPU seconds so far (pipeline and recording).
   std::vector<std::pair<double, double>> cpu_series;
   std::map<std::string, std::vector<TransformSample>> transform_series;
+  /// What the pipeline has done so far, one row per series period.
+  struct Work {
+    double t = 0.0;
+    std::size_t keyframes = 0;
+    std::size_t places = 0;
+    std::uint64_t verifications = 0;
+    std::map<std::string, double> stage_cpu_s;
+  };
+  std::vector<Work> work_series;
+  /// t, mission seconds a loop closure found then waited for the verification budget.
+  std::vector<std::pair<double, double>> closure_waits;
 };
 
 struct TeamResult {
