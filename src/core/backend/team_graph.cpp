@@ -490,6 +490,7 @@ BackendSnapshot TeamGraph::optimize() {
   if (!odom_poses_.empty()) snapshot.latest_odom_pose = odom_poses_.back();
   snapshot.solve_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  snapshot.cut_short = snapshot.solve_s >= params_.max_solve_time_s;
   return snapshot;
 }
 

@@ -116,7 +116,7 @@ void TeamGraphWorker::tick() {
   if (!thread_.joinable()) {
     std::deque<Input> inputs;
     inputs.swap(inputs_);
-    if (!inputs.empty()) optimize(inputs);
+    if (!inputs.empty() || resolve_) optimize(inputs);
     return;
   }
   {
@@ -190,15 +190,17 @@ void TeamGraphWorker::run() {
   while (true) {
     std::deque<Input> inputs;
     std::deque<std::function<void(const TeamGraph&)>> tasks;
+    bool due = false;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stop_ || due_ || !tasks_.empty(); });
       if (stop_) return;
+      due = due_;
       if (due_) inputs.swap(inputs_);
       due_ = false;
       tasks.swap(tasks_);
     }
-    if (!inputs.empty()) optimize(inputs);
+    if (!inputs.empty() || (due && resolve_)) optimize(inputs);
     for (const auto& task : tasks) task(*graph_);
   }
 }
@@ -208,6 +210,7 @@ void TeamGraphWorker::optimize(const std::deque<Input>& inputs) {
     for (const Input& input : inputs) apply(input);
     return graph_->optimize();
   });
+  resolve_ = snapshot.cut_short;
   if (hooks_.optimized) hooks_.optimized(snapshot, *graph_);
 }
 

@@ -845,6 +845,7 @@ TEST(TeamGraphWorker, OnTheCallersThreadEachCallReturnsWithItsOptimisationDone) 
   worker.tick();
   ASSERT_EQ(snapshots.size(), 1U);
   EXPECT_EQ(snapshots[0].poses.size(), 5U);
+  EXPECT_FALSE(snapshots[0].cut_short);
   worker.tick();
   EXPECT_EQ(snapshots.size(), 1U) << "nothing new: no optimisation";
   LoopClosureData loop;
@@ -861,6 +862,27 @@ TEST(TeamGraphWorker, OnTheCallersThreadEachCallReturnsWithItsOptimisationDone) 
   EXPECT_TRUE(worker.inspect([&](const TeamGraph& graph) {
     EXPECT_EQ(graph.exportGraph(&switches, &robots).poses.size(), 5U);
   }));
+}
+
+TEST(TeamGraphWorker, AnOptimisationCutShortByItsTimeBoundRunsAgainOnTheNextTick) {
+  using Worker = TeamGraphWorker;
+  std::vector<BackendSnapshot> snapshots;
+  Worker::Hooks hooks;
+  hooks.optimized = [&](const BackendSnapshot& snapshot, const TeamGraph&) {
+    snapshots.push_back(snapshot);
+  };
+  BackendParams params;
+  params.max_solve_time_s = 0.001;  // far less than 300 keyframes take on any machine
+  Worker worker(std::make_unique<TeamGraph>("robot_a", params), hooks, Worker::Threading::kCaller);
+  for (KeyframeId id = 0; id < 300; ++id) {
+    const Pose3 pose(Eigen::Translation3d(std::cos(0.05 * id), std::sin(0.05 * id), 0.0));
+    worker.add(Worker::OwnKeyframe{"robot_a", id, fromSeconds(100.0 + id), pose});
+  }
+  worker.tick();
+  ASSERT_EQ(snapshots.size(), 1U);
+  EXPECT_TRUE(snapshots[0].cut_short) << snapshots[0].solve_s << " s";
+  worker.tick();
+  EXPECT_EQ(snapshots.size(), 2U) << "nothing new, but the last result was cut short";
 }
 
 TEST(TeamGraphWorker, RoutesLoopClosuresByWhoFoundThemAndRefusesWhatCannotBeUsed) {

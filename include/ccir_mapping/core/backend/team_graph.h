@@ -82,6 +82,8 @@ struct BackendSnapshot {
   /// result disagreeing with the graph and how it was resolved).
   std::vector<Notice> notices;
   double solve_s = 0.0;
+  /// The optimisation used all of max_solve_time_s: its result may be short of the optimum.
+  bool cut_short = false;
 
   /// The odometry frame in the map frame: the correction the newest optimisation makes to
   /// odometry (identity while there is no keyframe).

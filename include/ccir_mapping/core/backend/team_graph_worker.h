@@ -118,6 +118,9 @@ class TeamGraphWorker {
   TeamGraphJournal* journal_ = nullptr;
   std::deque<std::function<void(const TeamGraph&)>> tasks_;  // inspect()'s
   bool due_ = false;
+  /// The last optimisation was cut short by its time bound: the next tick optimises again,
+  /// new inputs or not, so that a busy machine delays the optimum instead of losing it.
+  bool resolve_ = false;  // the optimising thread's
   bool stop_ = false;
   std::thread thread_;  // last: starts once everything above is constructed (kOwnThread only)
 };
