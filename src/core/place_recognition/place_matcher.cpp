@@ -436,16 +436,17 @@ void PlaceMatcher::gateRatios(const PlaceSet& set, const std::string& robot,
   std::deque<GateAnchor> anchors = gate_.anchors(robot);
   // Own loops: odometry itself is a prior, anchored at the query.
   if (robot.empty()) anchors.push_back({Pose3::Identity(), query.path_m, q.position, q.path_m});
+  // This robot's side of a pair and the other's: the places are the teammate's when this
+  // robot's keyframe is the query.
+  const bool places_are_other = query_is_own && !robot.empty();
   for (const GateAnchor& a : anchors) {
-    // The query predicted in the places' frame; this robot's side of the pair and the other's.
-    const bool places_are_other = query_is_own && !robot.empty();
+    // The query predicted in the places' frame.
     const Eigen::Vector3d centre =
         places_are_other ? a.other_in_own.inverse() * q.position : a.other_in_own * q.position;
     for (const std::size_t i : positions->second.within(centre, gate_.searchRadius())) {
       const DescribedKeyframe& p = set.places[i];
-      const GateKeyframe place{p.odom_pose->translation(), robot.empty() || !places_are_other
-                                                               ? std::optional<double>(p.path_m)
-                                                               : std::nullopt};
+      const GateKeyframe place{p.odom_pose->translation(),
+                               places_are_other ? std::nullopt : std::optional<double>(p.path_m)};
       const double r = places_are_other ? gate_.ratio(a, q, place) : gate_.ratio(a, place, q);
       gate[i] = std::min(gate[i], r);
     }
