@@ -418,7 +418,11 @@ void PlaceMatcher::anchor(const std::string& robot, const DescribedKeyframe& own
 
 void PlaceMatcher::addTeammateClosure(const std::string& self,
                                       const pose_graph::LoopClosureData& loop) {
-  if (loop.robot_to != self || loop.robot_from == self || !loop.odom_pose_from) return;
+  // Ignored unless usable: a teammate's message may carry anything.
+  if (loop.robot_to != self || loop.robot_from == self || !loop.odom_pose_from ||
+      !isValidPose(*loop.odom_pose_from) || !isValidPose(loop.relative)) {
+    return;
+  }
   const DescribedKeyframe* own = place(*own_, "", loop.keyframe_to);
   if (!own) return;
   DescribedKeyframe theirs;

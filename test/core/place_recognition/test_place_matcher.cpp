@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -234,8 +235,14 @@ TEST_F(PlaceMatcherTest, AClosureATeammateFoundAnchorsItsFrameToo) {
   loop.keyframe_to = 0;
   loop.odom_pose_from = Pose3(Eigen::Translation3d(-2.0, 0.0, 0.0));
   matcher.addTeammateClosure("robot_b", loop);  // not with this robot: ignored
+  pose_graph::LoopClosureData broken = loop;
+  broken.robot_from = "robot_b";
+  broken.odom_pose_from->translation().x() = std::nan("");
+  matcher.addTeammateClosure("robot_a", broken);  // not a usable pose: ignored
+  EXPECT_EQ(matcher.anchors("robot_b"), 0U);
   matcher.addTeammateClosure("robot_a", loop);
   EXPECT_TRUE(matcher.matchTeammate("robot_b", theirs(8)).empty()) << "robot_b is not anchored";
+  EXPECT_EQ(matcher.anchors("robot_c"), 1U);
   const MatchCandidate* best = bestAccepted(matcher.matchTeammate("robot_c", theirs(9)));
   ASSERT_NE(best, nullptr) << "robot_c's frame is: verified at once";
   EXPECT_EQ(best->keyframe, 0U);

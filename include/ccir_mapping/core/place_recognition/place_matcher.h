@@ -160,6 +160,8 @@ class PlaceMatcher {
   /// so that this robot need not find a first closure with it through the budget. Others (with
   /// a third robot, or without the pose) are ignored.
   void addTeammateClosure(const std::string& self, const pose_graph::LoopClosureData& loop);
+  /// The pose gate's anchors for robot `robot` ("" for own loops).
+  std::size_t anchors(const std::string& robot) const { return gate_.anchors(robot).size(); }
 
   /// A candidate verified from the queue: this robot's keyframe `own` and the teammate's.
   struct QueuedMatch {
