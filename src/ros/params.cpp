@@ -218,6 +218,7 @@ void load(ParamReader& reader, BackendSettings& config) {
                     core::pose_graph::kRobustKernelChoices, &core::pose_graph::toString);
   reader.read("switch_prior_sigma", p.switch_prior_sigma);
   reader.read("optimize_period_s", p.optimize_period_s);
+  reader.read("uncertainty_period_s", p.uncertainty_period_s);
   reader.read("max_solve_time_s", p.max_solve_time_s);
   reader.read("max_iterations", p.max_iterations);
   reader.read("odom_sigma_m_per_m", p.odometry.sigma_m_per_m);

@@ -4,7 +4,7 @@ namespace ccir_mapping::core::backend {
 
 BackendStage::BackendStage(const std::string& robot, const BackendParams& params, Hooks hooks,
                            Threading threading)
-    : robot_(robot), hooks_(std::move(hooks)) {
+    : params_(params), robot_(robot), hooks_(std::move(hooks)) {
   TeamGraphWorker::Hooks worker;
   worker.run = [this](const std::function<BackendSnapshot()>& batch) {
     std::optional<BackendSnapshot> snapshot;
@@ -54,9 +54,41 @@ void BackendStage::optimized(const BackendSnapshot& snapshot, const TeamGraph& g
   if (!hooks_.optimized) return;
   Output out{snapshot, std::nullopt};
   if (!snapshot.ids.empty() && hooks_.wants_uncertainty()) {
-    hooks_.run("uncertainty", [&] { out.uncertainty = graph.positionVariances(snapshot.ids); });
+    out.uncertainty = uncertainty(snapshot, graph);
   }
   hooks_.optimized(out);
+}
+
+std::optional<std::vector<double>> BackendStage::uncertainty(const BackendSnapshot& snapshot,
+                                                             const TeamGraph& graph) {
+  const Stamp now = snapshot.stamps.back();
+  if (!variances_stamp_ || now - *variances_stamp_ >= fromSeconds(params_.uncertainty_period_s)) {
+    std::optional<std::vector<double>> computed;
+    hooks_.run("uncertainty", [&] { computed = graph.positionVariances(snapshot.ids); });
+    if (!computed) return std::nullopt;
+    variances_.clear();
+    for (std::size_t i = 0; i < snapshot.ids.size(); ++i) {
+      variances_[snapshot.ids[i]] = (*computed)[i];
+    }
+    variances_stamp_ = now;
+    return computed;
+  }
+  // Keyframes since: the newest marginal plus each odometry step's position variance, as the
+  // odometry edges weigh it (isotropic: the geometric mean of its eigenvalues is its diagonal).
+  std::vector<double> variances(snapshot.ids.size(), 0.0);
+  double carried = 0.0;
+  for (std::size_t i = 0; i < snapshot.ids.size(); ++i) {
+    const auto known = variances_.find(snapshot.ids[i]);
+    if (known != variances_.end()) {
+      carried = variances[i] = known->second;
+    } else if (i > 0) {
+      const double step_m =
+          (snapshot.poses[i].translation() - snapshot.poses[i - 1].translation()).norm();
+      const double sigma_m = params_.odometry.sigma_m_per_m * step_m;
+      carried = variances[i] = carried + sigma_m * sigma_m;
+    }
+  }
+  return variances;
 }
 
 }  // namespace ccir_mapping::core::backend

@@ -1031,6 +1031,37 @@ TEST(BackendStage, EachOptimisationComesOutWithTheUncertaintyWhenAskedAndRefusal
   EXPECT_FALSE(refusals.back().dropped);
 }
 
+TEST(BackendStage, MarginalsAtMostOncePerPeriodAndNewerKeyframesByOdometryBetween) {
+  std::vector<BackendStage::Output> outputs;
+  std::map<std::string, int> runs;
+  BackendStage::Hooks hooks;
+  hooks.run = [&](const char* stage, const std::function<void()>& work) {
+    ++runs[stage];
+    work();
+  };
+  hooks.optimized = [&](const BackendStage::Output& out) { outputs.push_back(out); };
+  BackendParams params;
+  params.uncertainty_period_s = 10.0;
+  BackendStage stage("robot_a", params, hooks, BackendStage::Threading::kCaller);
+  auto keyframe = [&](KeyframeId id) {
+    stage.add(BackendStage::OwnKeyframe{"robot_a", id, fromSeconds(double(id)),
+                                        Pose3(Eigen::Translation3d(2.0 * double(id), 0.0, 0.0))});
+    if (id > 0) stage.tick();
+  };
+  for (KeyframeId id = 0; id < 4; ++id) keyframe(id);
+  EXPECT_EQ(runs["uncertainty"], 1) << "keyframes 2 and 3 came within 10 s of the first solve";
+  ASSERT_EQ(outputs.size(), 3U);
+  const auto& between = *outputs.back().uncertainty;
+  ASSERT_EQ(between.size(), 4U);
+  // 2 m of odometry at 0.05 m per m: 0.01 m^2 more per keyframe.
+  EXPECT_NEAR(between[3] - between[2], 0.01, 1e-12);
+  for (KeyframeId id = 4; id < 12; ++id) keyframe(id);
+  EXPECT_EQ(runs["uncertainty"], 2) << "again at 11 s";
+  const auto& fresh = *outputs.back().uncertainty;
+  ASSERT_EQ(fresh.size(), 12U);
+  EXPECT_LT(fresh[1], fresh[11]) << "u_k grows along odometry";
+}
+
 TEST(BackendStage, ResumesWhatItsJournalKeptAndSavesItsFiles) {
   const auto dir =
       std::filesystem::temp_directory_path() / ("ccir_backend_stage_" + std::to_string(::getpid()));

@@ -31,6 +31,10 @@ struct BackendParams {
   double team_disagreement_deg = 5.0;
   /// The graph is re-optimised at this period (and when a loop closure arrives).
   double optimize_period_s = 1.0;
+  /// u_k, the marginal covariances of every own keyframe (a ceres::Covariance over the whole
+  /// graph, whose cost grows with it), are computed at most this often in mission time; between,
+  /// a newer keyframe's is the newest computed one's plus the odometry drift since.
+  double uncertainty_period_s = 10.0;
   /// Upper bound on one optimisation's wall time.
   double max_solve_time_s = 0.5;
   int max_iterations = 50;

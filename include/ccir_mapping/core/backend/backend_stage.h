@@ -7,6 +7,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -86,6 +87,14 @@ class BackendStage {
 
  private:
   void optimized(const BackendSnapshot& snapshot, const TeamGraph& graph);
+  /// u_k of snapshot.ids: the marginals when uncertainty_period_s has passed since the last
+  /// ones (mission time), else those kept, newer keyframes extended by odometry drift.
+  std::optional<std::vector<double>> uncertainty(const BackendSnapshot& snapshot,
+                                                 const TeamGraph& graph);
+
+  const BackendParams params_;
+  std::map<KeyframeId, double> variances_;  // the last marginals (the worker's thread)
+  std::optional<Stamp> variances_stamp_;
 
   const std::string robot_;
   Hooks hooks_;
