@@ -1,9 +1,8 @@
 // Mapper: own keyframes and teammates' scans -> the robot's occupancy map (OctoMap), which follows
-// the Backend's optimised poses (own and, from the team graph, teammates') by rebuilding
-// (core/information/mapper_stage.h). Publishes the
-// occupied voxels while someone listens and the map's entropy and known volume; saves the map on
-// ~save_map and at shutdown (save_dir); shares it in-process with the Broker
-// (core/information/shared_map.h).
+// the Backend's optimised poses (own and, from the team graph, teammates') by moving submaps
+// (core/information/mapper_stage.h). Publishes the occupied voxels while someone listens and the
+// map's entropy and known volume; saves the map on ~save_map and at shutdown (save_dir); shares
+// it in-process with the Broker (core/information/shared_map.h).
 #include <nav_msgs/Path.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -28,9 +27,6 @@ class MapperNodelet final : public PipelineNodelet {
     if (!loadSettings(settings_)) return;
     info::MapperStage::Hooks hooks;
     hooks.run = [this](const char* stage, const auto& work) { measured(stage, work); };
-    hooks.rebuilt = [this](std::size_t scans, double seconds) {
-      NODELET_INFO("map rebuilt at the optimised poses from %zu scans in %.1f s", scans, seconds);
-    };
     stage_ =
         std::make_unique<info::MapperStage>(settings_.frames.robot_name, settings_.core, hooks);
     try {
@@ -109,7 +105,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onTimer() {
-    stage_->rebuildIfDue(ros::SteadyTime::now().toSec());  // the cost is paid in wall time
+    stage_->followPoses();
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = settings_.frames.map_frame;

@@ -781,8 +781,12 @@ MapStats toMapStatsMsg(const core::information::MapperStage::Stats& stats,
   msg.keyframes = static_cast<std::uint32_t>(stats.keyframes);
   msg.peer_scans = static_cast<std::uint32_t>(stats.peer_scans);
   msg.pending_peer_scans = static_cast<std::uint32_t>(stats.pending_peer_scans);
+  msg.submaps = static_cast<std::uint32_t>(stats.submaps);
   msg.settled_scans = static_cast<std::uint32_t>(stats.settled_scans);
-  msg.rebuilds = stats.rebuilds;
+  msg.submap_moves = stats.submap_moves;
+  msg.reintegrations = stats.reintegrations;
+  msg.map_mb = stats.map_mb;
+  msg.submap_mb = stats.submap_mb;
   return msg;
 }
 

@@ -243,10 +243,10 @@ void load(ParamReader& reader, MapperSettings& config) {
   reader.read("csqmi_sigma_m", p.csqmi_sigma_m);
   reader.read("simulated_azimuth_step_deg", p.simulated_azimuth_step_deg);
   reader.read("scan_beam_step", p.scan_beam_step);
-  reader.read("rebuild_shift_m", p.rebuild_shift_m);
-  reader.read("rebuild_wait_s_per_scan", p.rebuild_wait_s_per_scan);
-  reader.read("rebuild_window_scans", p.rebuild_window_scans);
-  reader.read("rebuild_rotation_deg", p.rebuild_rotation_deg);
+  reader.read("submap_scans", p.submap_scans);
+  reader.read("reanchor_shift_m", p.reanchor_shift_m);
+  reader.read("reanchor_rotation_deg", p.reanchor_rotation_deg);
+  reader.read("submap_window_scans", p.submap_window_scans);
   reader.read("entropy_box_half_width_m", p.entropy_box_half_width_m);
   reader.read("entropy_box_min_z_m", p.entropy_box_min_z_m);
   reader.read("entropy_box_max_z_m", p.entropy_box_max_z_m);

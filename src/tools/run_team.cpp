@@ -311,8 +311,12 @@ Json::Value robotJson(const runner::RobotResult& r, const runner::RunnerParams& 
   j["map"]["entropy_bits"] = round3(r.map.entropy_bits);
   j["map"]["keyframes"] = Json::UInt64(r.map.keyframes);
   j["map"]["peer_scans"] = Json::UInt64(r.map.peer_scans);
+  j["map"]["submaps"] = Json::UInt64(r.map.submaps);
   j["map"]["settled_scans"] = Json::UInt64(r.map.settled_scans);
-  j["map"]["rebuilds"] = r.map.rebuilds;
+  j["map"]["submap_moves"] = Json::UInt64(r.map.submap_moves);
+  j["map"]["reintegrations"] = Json::UInt64(r.map.reintegrations);
+  j["map"]["map_mb"] = round3(r.map.map_mb);
+  j["map"]["submap_mb"] = round3(r.map.submap_mb);
   j["broker"]["scans_sent"] = Json::UInt64(r.broker.scans_sent);
   j["broker"]["scans_received"] = Json::UInt64(r.broker.scans_received);
   j["broker"]["features_sent"] = Json::UInt64(r.broker.features_sent);

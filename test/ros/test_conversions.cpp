@@ -669,8 +669,12 @@ TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
   stats.keyframes = 9;
   stats.peer_scans = 4;
   stats.pending_peer_scans = 2;
+  stats.submaps = 6;
   stats.settled_scans = 5;
-  stats.rebuilds = 3;
+  stats.submap_moves = 3;
+  stats.reintegrations = 1;
+  stats.map_mb = 12.5;
+  stats.submap_mb = 3.25;
   core::information::MapperParams params;
   params.resolution_m = 0.2;
   params.entropy_box_half_width_m = 30.0;
@@ -687,8 +691,12 @@ TEST(Conversions, MapStatsCarryTheMapsFiguresAndItsBox) {
   EXPECT_EQ(msg.keyframes, 9U);
   EXPECT_EQ(msg.peer_scans, 4U);
   EXPECT_EQ(msg.pending_peer_scans, 2U);
+  EXPECT_EQ(msg.submaps, 6U);
   EXPECT_EQ(msg.settled_scans, 5U);
-  EXPECT_EQ(msg.rebuilds, 3U);
+  EXPECT_EQ(msg.submap_moves, 3U);
+  EXPECT_EQ(msg.reintegrations, 1U);
+  EXPECT_DOUBLE_EQ(msg.map_mb, 12.5);
+  EXPECT_DOUBLE_EQ(msg.submap_mb, 3.25);
 }
 
 TEST(Conversions, TfCarriesTheOdometryCorrectionAndTheTransformsFound) {

@@ -16,10 +16,10 @@ std::vector<std::string> MapperParams::validate() const {
   check.inHalfOpenRange("csqmi_sigma_m", csqmi_sigma_m, 0.0, 10.0);
   check.inHalfOpenRange("simulated_azimuth_step_deg", simulated_azimuth_step_deg, 0.0, 90.0);
   check.inRange("scan_beam_step", scan_beam_step, 1, 100000);
-  check.inHalfOpenRange("rebuild_shift_m", rebuild_shift_m, 0.0, 100.0);
-  check.inRange("rebuild_wait_s_per_scan", rebuild_wait_s_per_scan, 0.0, 100.0);
-  check.inRange("rebuild_window_scans", rebuild_window_scans, 0, 1000000);
-  check.inHalfOpenRange("rebuild_rotation_deg", rebuild_rotation_deg, 0.0, 180.0);
+  check.inRange("submap_scans", submap_scans, 1, 10000);
+  check.inHalfOpenRange("reanchor_shift_m", reanchor_shift_m, 0.0, 100.0);
+  check.inHalfOpenRange("reanchor_rotation_deg", reanchor_rotation_deg, 0.0, 180.0);
+  check.inRange("submap_window_scans", submap_window_scans, 0, 1000000);
   check.inHalfOpenRange("entropy_box_half_width_m", entropy_box_half_width_m, 0.0, 10000.0);
   check.inRange("entropy_box_min_z_m", entropy_box_min_z_m, -1000.0, 1000.0);
   check.inRange("entropy_box_max_z_m", entropy_box_max_z_m, -1000.0, 1000.0);

@@ -2,7 +2,6 @@
 
 #include <malloc.h>
 
-#include <chrono>
 #include <filesystem>
 #include <stdexcept>
 
@@ -10,17 +9,14 @@ namespace ccir_mapping::core::information {
 
 MapperStage::MapperStage(std::string robot, const MapperParams& params, Hooks hooks)
     : robot_(std::move(robot)),
-      params_(params),
       hooks_(std::move(hooks)),
       map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
-      keyframes_(params) {}
+      keyframes_(params),
+      // The map's tree is never replaced (resume loads into it), so the reference stays good.
+      submaps_(*map_->read([](const OccupancyMap& map) { return &map.tree(); })) {}
 
 MapperStage::MapperStage(std::string robot, const MapperParams& params)
     : MapperStage(std::move(robot), params, Hooks{}) {}
-
-MapperStage::~MapperStage() {
-  if (rebuild_thread_.joinable()) rebuild_thread_.join();
-}
 
 void MapperStage::addOwn(Stamp stamp, std::shared_ptr<const Cloud> cloud, const Pose3& odom_pose) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -55,75 +51,58 @@ void MapperStage::setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& 
   keyframes_.setOptimizedPoses(poses);
 }
 
-// Holds mutex_: a rebuild swaps its map in under it, so a scan lands in the old map before the
-// swap and is kept for the new one, or in the new one after it.
+// Holds mutex_. The map's keys and rays depend on its resolution only, so the update is
+// computed under the shared lock and only applied under the exclusive one.
 void MapperStage::insert(const std::vector<PlacedScan>& scans) {
   if (scans.empty()) return;
   hooks_.run("insert", [&] {
-    map_->write([&](OccupancyMap& map) {
-      for (const auto& scan : scans) map.insert(*scan.cloud, scan.map_from_sensor);
-    });
-  });
-  if (rebuilding_)
-    placed_during_rebuild_.insert(placed_during_rebuild_.end(), scans.begin(), scans.end());
-}
-
-bool MapperStage::rebuildIfDue(double now_s) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (busy_) return false;
-  const bool rebuild = keyframes_.rebuildDue() &&
-                       (last_rebuild_scans_ == 0 ||
-                        now_s - last_rebuild_s_ >= params_.rebuild_wait_s_per_scan *
-                                                       static_cast<double>(last_rebuild_scans_));
-  if (!rebuild && !keyframes_.settleDue()) return false;
-  if (rebuild_thread_.joinable()) rebuild_thread_.join();
-  busy_ = true;
-  rebuilding_ = rebuild;
-  auto settled = keyframes_.settle();
-  std::vector<PlacedScan> scans;
-  if (rebuild) {
-    scans = keyframes_.placeAll();
-    last_rebuild_s_ = now_s;
-    last_rebuild_scans_ = scans.size();
-  }
-  rebuild_thread_ =
-      std::thread([this, rebuild, settled = std::move(settled), scans = std::move(scans)] {
-        const auto start = std::chrono::steady_clock::now();
-        // Only this thread touches base_, and one runs at a time.
-        auto fresh = base_ ? std::make_unique<OccupancyMap>(params_, *base_)
-                           : std::make_unique<OccupancyMap>(params_);
-        hooks_.run("rebuild", [&] {
-          for (const auto& scan : settled) fresh->insert(*scan.cloud, scan.map_from_sensor);
-          if (!settled.empty()) base_ = fresh->snapshot();
-          for (const auto& scan : scans) fresh->insert(*scan.cloud, scan.map_from_sensor);
-        });
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (rebuild) {
-            for (const auto& scan : placed_during_rebuild_)
-              fresh->insert(*scan.cloud, scan.map_from_sensor);
-            placed_during_rebuild_.clear();
-            map_->replace(std::move(fresh));
-            ++rebuilds_;
-          }
-          busy_ = rebuilding_ = false;
-        }
-        rebuild_done_.notify_all();
-        // The map that went held millions of small nodes; glibc keeps their pages unless
-        // asked, and a resident size that grows with every rebuild looks like a leak.
-        malloc_trim(0);
-        if (rebuild && hooks_.rebuilt) {
-          hooks_.rebuilt(
-              scans.size(),
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        }
+    for (const auto& scan : scans) {
+      const ScanUpdate update = map_->read([&](const OccupancyMap& map) {
+        return map.computeUpdate(*scan.cloud, scan.map_from_sensor);
       });
-  return rebuild;
+      map_->write([&](OccupancyMap& map) { map.insert(update); });
+      submaps_.add(scan.submap, update);
+    }
+    for (const SubmapId id : keyframes_.takeClosed()) submaps_.close(id);
+  });
 }
 
-void MapperStage::waitForRebuild() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  rebuild_done_.wait(lock, [this] { return !busy_; });
+std::size_t MapperStage::followPoses() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::size_t changed = 0;
+  hooks_.run("reanchor", [&] {
+    std::vector<SubmapSet::Change> changes;
+    for (auto& move : keyframes_.takeMoves()) {
+      SubmapSet::Change change{move.id, move.delta, std::nullopt};
+      if (!move.scans.empty()) {
+        change.updates.emplace();
+        map_->read([&](const OccupancyMap& map) {
+          for (const auto& scan : move.scans) {
+            change.updates->push_back(map.computeUpdate(*scan.cloud, scan.map_from_sensor));
+          }
+          return 0;
+        });
+        ++reintegrations_;
+      } else {
+        ++submap_moves_;
+      }
+      changes.push_back(std::move(change));
+    }
+    changed = changes.size();
+    for (const SubmapId id : keyframes_.takeClosed()) submaps_.close(id);
+    if (!changes.empty()) {
+      const auto voxels = submaps_.apply(changes);
+      map_->write([&](OccupancyMap& map) { map.assign(voxels); });
+    }
+    const auto settled = keyframes_.settle();
+    for (const SubmapId id : settled) submaps_.settle(id);
+    if (!settled.empty()) {
+      // glibc keeps the pages of freed clouds and evidence unless asked: a resident size that
+      // only grows looks like a leak.
+      malloc_trim(0);
+    }
+  });
+  return changed;
 }
 
 std::string MapperStage::save(const std::string& dir) {
@@ -131,9 +110,9 @@ std::string MapperStage::save(const std::string& dir) {
   std::filesystem::create_directories(dir, error);
   if (error) throw std::runtime_error("cannot create " + dir + ": " + error.message());
   const std::string path = dir + "/map.bt";
-  waitForRebuild();
   // Written aside and renamed over the last save: a crash mid-save leaves a whole map to resume.
   const std::string aside = path + ".new";
+  std::lock_guard<std::mutex> lock(mutex_);
   if (!map_->write([&](OccupancyMap& map) { return map.save(aside); })) {
     throw std::runtime_error("cannot write " + path);
   }
@@ -145,12 +124,14 @@ std::string MapperStage::save(const std::string& dir) {
 bool MapperStage::resume(const std::string& dir) {
   const std::string path = dir + "/map.bt";
   if (!std::filesystem::exists(path)) return false;
-  auto saved = std::make_unique<OccupancyMap>(params_);
-  saved->load(path);
   std::lock_guard<std::mutex> lock(mutex_);
-  if (busy_) throw std::logic_error("MapperStage::resume during a rebuild");
-  base_ = saved->snapshot();
-  map_->replace(std::move(saved));
+  if (keyframes_.ownKeyframes() + keyframes_.peerScans() + keyframes_.pendingPeerScans() > 0) {
+    throw std::logic_error("MapperStage::resume after scans were added");
+  }
+  map_->write([&](OccupancyMap& map) {
+    map.load(path);
+    submaps_.addSettled(map.tree());
+  });
   return true;
 }
 
@@ -159,14 +140,18 @@ MapperStage::Stats MapperStage::stats() const {
   map_->read([&](const OccupancyMap& map) {
     stats.entropy_bits = map.boxEntropyBits();
     stats.known_volume_m3 = map.boxKnownVolumeM3();
+    stats.map_mb = static_cast<double>(map.tree().memoryUsage()) / 1e6;
     return 0;
   });
   std::lock_guard<std::mutex> lock(mutex_);
   stats.keyframes = keyframes_.ownKeyframes();
   stats.peer_scans = keyframes_.peerScans();
   stats.pending_peer_scans = keyframes_.pendingPeerScans();
+  stats.submaps = submaps_.size();
   stats.settled_scans = keyframes_.settledScans();
-  stats.rebuilds = rebuilds_;
+  stats.submap_moves = submap_moves_;
+  stats.reintegrations = reintegrations_;
+  stats.submap_mb = static_cast<double>(submaps_.bytes()) / 1e6;
   return stats;
 }
 

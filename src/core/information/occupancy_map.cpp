@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include <pcl/common/transforms.h>
@@ -42,20 +41,6 @@ OccupancyMap::OccupancyMap(const MapperParams& params)
   for (int a = 0; a < 3; ++a) box_entropy_bits_ *= box_max_key_[a] - box_min_key_[a] + 1;
 }
 
-OccupancyMap::OccupancyMap(const MapperParams& params, const Snapshot& snapshot)
-    : OccupancyMap(params) {
-  std::istringstream in(snapshot.tree);
-  tree_.readData(in);
-  box_entropy_bits_ = snapshot.box_entropy_bits;
-  box_known_voxels_ = snapshot.box_known_voxels;
-}
-
-OccupancyMap::Snapshot OccupancyMap::snapshot() const {
-  std::ostringstream out;
-  tree_.writeData(out);
-  return {out.str(), box_entropy_bits_, box_known_voxels_};
-}
-
 double OccupancyMap::boxKnownVolumeM3() const {
   return box_known_voxels_ * std::pow(params_.resolution_m, 3);
 }
@@ -91,6 +76,61 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
   box_known_voxels_ += before ? 0.0 : 1.0;
   const octomap::OcTreeNode* after = tree_.updateNode(key, hit, /*lazy_eval=*/true);
   box_entropy_bits_ += entropy_(after->getLogOdds()) - h_before;
+}
+
+void OccupancyMap::forget(const octomap::OcTreeKey& key) {
+  // OcTreeBaseImpl::deleteNode deletes an inner node its last child left with the child array
+  // still allocated, which OctoMap 1.9's node destructor asserts against: the path is walked
+  // here, and an emptied node's array released (expandNode, then pruneNode) before it goes.
+  const int depth = static_cast<int>(tree_.getTreeDepth());
+  std::vector<std::pair<octomap::OcTreeNode*, unsigned>> path;
+  octomap::OcTreeNode* node = tree_.getRoot();
+  for (int d = 0; node && d < depth; ++d) {
+    const unsigned child = octomap::computeChildIdx(key, depth - 1 - d);
+    if (!tree_.nodeChildExists(node, child)) {
+      if (tree_.nodeHasChildren(node) || d == 0) return;  // not in the map
+      tree_.expandNode(node);                             // a pruned leaf holding the voxel
+    }
+    path.emplace_back(node, child);
+    node = tree_.getNodeChild(node, child);
+  }
+  for (auto step = path.rbegin(); step != path.rend(); ++step) {
+    auto [parent, child] = *step;
+    tree_.deleteNodeChild(parent, child);
+    if (tree_.nodeHasChildren(parent)) return;
+    if (parent == tree_.getRoot()) return tree_.clear();
+    tree_.expandNode(parent);
+    tree_.pruneNode(parent);
+  }
+}
+
+void OccupancyMap::assign(
+    const std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>>& voxels) {
+  for (const auto& [key, log_odds] : voxels) {
+    bool in_box = true;
+    for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
+    if (in_box) {
+      const octomap::OcTreeNode* before = tree_.search(key);
+      box_entropy_bits_ -= before ? entropy_(before->getLogOdds()) : 1.0;
+      box_known_voxels_ -= before ? 1.0 : 0.0;
+    }
+    if (!log_odds) {
+      forget(key);
+      if (in_box) box_entropy_bits_ += 1.0;
+      continue;
+    }
+    const float value =
+        std::clamp(*log_odds, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
+    if (octomap::OcTreeNode* leaf = finestLeaf(key)) {
+      leaf->setLogOdds(value);
+    } else {
+      tree_.setNodeValue(key, value, /*lazy_eval=*/true);
+    }
+    if (in_box) {
+      box_entropy_bits_ += entropy_(value);
+      box_known_voxels_ += 1.0;
+    }
+  }
 }
 
 int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,

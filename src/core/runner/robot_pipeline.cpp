@@ -46,12 +46,6 @@ std::map<std::string, double> RobotPipeline::stageCpu() const {
   return stage_cpu_;
 }
 
-double RobotPipeline::backgroundCpu() const {
-  std::lock_guard<std::mutex> lock(cpu_mutex_);
-  const auto it = stage_cpu_.find("rebuild");
-  return it == stage_cpu_.end() ? 0.0 : it->second;
-}
-
 bool RobotPipeline::Timer::due(double now_s) {
   if (now_s < next_s) return false;
   while (next_s <= now_s) next_s += period_s;
@@ -64,7 +58,7 @@ RobotPipeline::RobotPipeline(std::string name, std::vector<std::string> peers,
                              double phase)
     : name_(std::move(name)),
       matcher_(name_, params.matcher, std::move(model), {meter()}),
-      map_(name_, params.mapper, {meter(), {}}),
+      map_(name_, params.mapper, {meter()}),
       broker_(name_, std::move(peers), params.broker, params.mapper,
               [](const routing::ControlMessage& m) {
                 return std::visit([](const auto& c) { return serializedBytes(TeamMessage(c)); }, m);
@@ -187,10 +181,7 @@ void RobotPipeline::onScan(double now_s, const routing::WireScan& scan) {
 
 void RobotPipeline::runTimers(double now_s) {
   if (optimisation_.due(now_s)) backend_->tick();
-  if (map_update_.due(now_s)) {
-    map_.rebuildIfDue(now_s);
-    map_.waitForRebuild();  // here, not beside the next steps: a run must not depend on timing
-  }
+  if (map_update_.due(now_s)) map_.followPoses();
   if (offers_.due(now_s)) {
     route(now_s, measured("route", [&] { return broker_.runPeriod(now_s); }));
   }

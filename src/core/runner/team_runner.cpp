@@ -314,8 +314,7 @@ TeamResult TeamRunner::run(const Progress& progress) {
         }
         const auto stats = robots[i]->mapStats();
         r.map_series.push_back({t, stats.known_volume_m3, stats.entropy_bits});
-        r.cpu_series.emplace_back(
-            t, r.pipeline_cpu_s + robots[i]->backgroundCpu() + feeds[i]->cpuSeconds());
+        r.cpu_series.emplace_back(t, r.pipeline_cpu_s + feeds[i]->cpuSeconds());
         r.work_series.push_back({t, keyframes[i].size(), robots[i]->places(),
                                  robots[i]->verifications(), robots[i]->stageCpu()});
         for (const auto& estimate : robots[i]->snapshot().team) {
@@ -340,7 +339,6 @@ TeamResult TeamRunner::run(const Progress& progress) {
     const RobotPipeline& robot = *robots[i];
     r.keyframes = keyframes[i].size();
     r.recording_cpu_s = feeds[i]->cpuSeconds();
-    r.pipeline_cpu_s += robot.backgroundCpu();
     r.stage_cpu_s = robot.stageCpu();
     r.closure_waits = robot.closureWaits();
     r.dropped_scans = feeds[i]->droppedScans();

@@ -25,26 +25,24 @@ struct MapperParams {
   double simulated_azimuth_step_deg = 3.0;
   /// Mutual information of a real scan: one beam per this many of its points.
   int scan_beam_step = 10;
-  /// The map is rebuilt when an inserted keyframe's optimised pose, or a team transform, has
-  /// moved more than this since it was inserted.
-  double rebuild_shift_m = 0.2;
-  double rebuild_rotation_deg = 1.0;
-  /// A rebuild waits this long per scan the last one placed (0: none): it costs ~60 ms of CPU
-  /// per scan, so with a wait rebuilds take at most ~60 ms / this of a core (~25 % at 0.25);
-  /// without one they run back to back while the optimised poses keep moving (a 300 s 3-robot
-  /// mission: 811 of a robot's 1023 CPU seconds). With rebuild_window_scans 400 a correction
-  /// shows within ~100 s.
-  double rebuild_wait_s_per_scan = 0.25;
-  /// Rebuilds re-place only the newest this many placed scans (own and teammates', in the order
-  /// they were placed). Once a quarter window more are placed, the older ones are settled:
-  /// integrated once more, at their poses of that moment, into a compact base map (see
-  /// OccupancyMap::Snapshot) that every rebuild starts from, and their clouds released. So a
-  /// rebuild costs at most this many scans and a robot keeps at most 1.25 times this many
-  /// clouds, however long the mission; the price is that a correction reaching a settled scan
-  /// no longer moves it in the map. 400: a 3-robot mission reaches it after ~4 minutes (each
-  /// robot ~1 keyframe/s and ~0.6 teammates' scans/s); a rebuild then costs at most ~25 s of
-  /// CPU and the clouds ~90 MB. 0: no window (every scan kept and re-placed).
-  int rebuild_window_scans = 400;
+  /// Scans go into submaps of this many consecutive scans of one robot (own keyframes, or one
+  /// teammate's scans): blocks of occupancy evidence that the map moves as a whole when the
+  /// optimised poses move (see SubmapSet).
+  int submap_scans = 10;
+  /// A submap is re-anchored (its evidence moved to where its first scan now is) when that scan's
+  /// optimised pose, or a team transform, has moved more than this since it was last placed; it
+  /// is re-integrated (its scans inserted again) when a scan moved this much relative to the
+  /// first one, while it still holds its clouds.
+  double reanchor_shift_m = 0.2;
+  double reanchor_rotation_deg = 1.0;
+  /// The newest this many placed scans are in live submaps, which follow corrections and keep
+  /// their clouds (~0.1-0.3 MB a scan) and evidence (~1 MB a scan at 0.1 m: a scan's rays cross
+  /// ~150 k voxels, few shared with the next scan's). Once a quarter more are placed, the oldest
+  /// closed submaps settle: their evidence joins the settled part of the map (8 bytes a voxel,
+  /// counted once however often seen), their clouds are released, and they stay where they
+  /// last were. So memory and the cost of a move stay bounded however long the mission; the
+  /// price is that a correction reaching a settled scan no longer moves it. 0: none settles.
+  int submap_window_scans = 60;
   /// Map entropy and known volume are reported over this box around the map origin (fixed, so
   /// the numbers compare over time).
   double entropy_box_half_width_m = 100.0;

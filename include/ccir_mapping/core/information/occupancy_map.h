@@ -3,6 +3,7 @@
 // the Cauchy-Schwarz mutual information of a scan's beams (thesis section 3.2.3).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -40,19 +41,8 @@ struct ScanUpdate {
 
 class OccupancyMap final : public MapInformation {
  public:
-  /// The map in compact form: the octree's nodes serialised (OctoMap's own format, ~5 bytes a
-  /// node against ~40 in memory) and the entropy box's statistics.
-  struct Snapshot {
-    std::string tree;
-    double box_entropy_bits = 0.0;
-    double box_known_voxels = 0.0;
-  };
-
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit OccupancyMap(const MapperParams& params);
-  /// The map a snapshot() was taken of (with the same params).
-  OccupancyMap(const MapperParams& params, const Snapshot& snapshot);
-  Snapshot snapshot() const;
 
   /// `points` (map frame) seen from `origin`; beams longer than max_insert_range_m clear free
   /// space up to that range only. Non-finite points are skipped and counted.
@@ -67,6 +57,9 @@ class OccupancyMap final : public MapInformation {
   void insert(const ScanUpdate& update);
   /// insert(computeUpdate(sensor_points, map_from_sensor)).
   void insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor);
+  /// Sets each voxel to its log-odds (clamped) or makes it unknown, the entropy box following
+  /// (what SubmapSet::apply computes).
+  void assign(const std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>>& voxels);
 
   /// Entropy, in bits, inserting `update` would remove (sum over its voxels of h(before) -
   /// h(after)); may be negative where a scan contradicts the map. The map is not changed.
@@ -126,6 +119,8 @@ class OccupancyMap final : public MapInformation {
   /// The voxels `points` (map frame) seen from `origin` update; returns the non-finite points.
   int collect(const pcl::PointCloud<pcl::PointXYZ>& points, const Eigen::Vector3d& origin,
               FlatKeySet& free_cells, FlatKeySet& occupied_cells) const;
+  /// Makes the voxel unknown (removes its node).
+  void forget(const octomap::OcTreeKey& key);
   /// One voxel's hit or miss, with the entropy box's statistics following it.
   void update(const octomap::OcTreeKey& key, bool hit);
   /// The voxel's node if the tree holds it at the finest depth (not inside a pruned leaf).

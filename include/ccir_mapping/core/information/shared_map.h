@@ -1,7 +1,8 @@
 // A robot's occupancy map shared between the nodelets of its manager: the Mapper writes it, the
 // Broker asks it information questions in-process (no copy over a topic). Readers take a shared
-// lock for the duration of a query; the Mapper swaps in a rebuilt map under the exclusive lock,
-// so a query never sees a map half rebuilt. The nodelets meet through a registry of the process
+// lock for the duration of a query; the Mapper changes it under the exclusive lock, so a query
+// never sees a scan or a moved submap half applied. The nodelets meet through a registry of the
+// process
 // keyed by the Mapper nodelet's name, which the Broker's `mapper` parameter names.
 #pragma once
 
@@ -28,10 +29,6 @@ class SharedMap {
   auto write(F&& f) {
     std::unique_lock lock(mutex_);
     return f(*map_);
-  }
-  void replace(std::unique_ptr<OccupancyMap> map) {
-    std::unique_lock lock(mutex_);
-    map_ = std::move(map);
   }
 
   /// The maps of this process by the (resolved) name of the Mapper nodelet that writes it.

@@ -45,7 +45,7 @@ class RobotPipeline {
   /// A teammate's message, as the inbox delivers it.
   void onMessage(double now_s, const TeamMessage& message);
   /// The periodic work due by `now_s`: the Broker's offer period, the Backend's optimisation,
-  /// the Mapper's rebuild.
+  /// the Mapper's following of moved poses.
   void runTimers(double now_s);
   /// LinkStats of the link to `peer`.
   void setLink(const std::string& peer, const routing::LinkState& state);
@@ -69,10 +69,8 @@ class RobotPipeline {
   /// Mission time of each loop closure found, with what it waited for the verification budget.
   const std::vector<std::pair<double, double>>& closureWaits() const { return closure_waits_; }
   /// CPU seconds by stage, as the nodelets report them on diagnostics ("describe", "match",
-  /// "insert", "rebuild", "optimise", "footprint", "route", "codec").
+  /// "insert", "reanchor", "optimise", "footprint", "route", "codec").
   std::map<std::string, double> stageCpu() const;
-  /// CPU seconds spent on threads other than the caller's (the Mapper's rebuilds).
-  double backgroundCpu() const;
 
  private:
   using Broker = routing::BrokerStage<std::shared_ptr<const routing::WireScan>>;
@@ -100,7 +98,7 @@ class RobotPipeline {
   void addCpu(const char* stage, double seconds);
 
   const std::string name_;
-  mutable std::mutex cpu_mutex_;  // the Mapper's rebuild thread adds too: before map_
+  mutable std::mutex cpu_mutex_;  // a stage's hooks may measure on a thread of its own
   std::map<std::string, double> stage_cpu_;
   place_recognition::MatcherStage matcher_;
   information::MapperStage map_;

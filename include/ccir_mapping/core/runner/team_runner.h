@@ -38,7 +38,7 @@ struct TransformSample {
 struct RobotResult {
   std::string name;
   std::size_t keyframes = 0;
-  /// CPU seconds of its pipeline (matching, back end, map with its rebuilds, routing), and of
+  /// CPU seconds of its pipeline (matching, back end, map, routing), and of
   /// its simulated recording with the Preprocessor's stage; the pipeline's by stage.
   double pipeline_cpu_s = 0.0;
   double recording_cpu_s = 0.0;

@@ -1,0 +1,62 @@
+// A robot's submaps and the map they make. Each voxel of the map holds the sum of the log-odds the
+// submaps give it, clamped as OctoMap clamps: where submaps overlap a voxel is one voxel of the
+// map, counted once by its entropy, known volume and information queries, with the evidence of
+// all. A new scan goes into its submap and into the map at once (OccupancyMap::insert); moving
+// or re-integrating submaps recomputes the map only where they were and where they are now, from
+// the submaps that reach there, so its cost follows the submaps moved, not the map's size.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "ccir_mapping/core/information/occupancy_map.h"
+#include "ccir_mapping/core/information/submap.h"
+
+namespace ccir_mapping::core::information {
+
+using SubmapId = std::uint32_t;
+
+class SubmapSet {
+ public:
+  /// A submap moved to `delta` (Submap::delta), or integrated again from `updates` (its scans at
+  /// their current poses, in the map frame: delta identity).
+  struct Change {
+    SubmapId id = 0;
+    Pose3 delta = Pose3::Identity();
+    std::optional<std::vector<ScanUpdate>> updates;
+  };
+  /// What the map's voxels become: a log-odds, or unknown.
+  using Voxels = std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>>;
+
+  /// `grid`: the map's tree (its keys and sensor model).
+  explicit SubmapSet(const octomap::OcTree& grid) : grid_(grid) {}
+
+  /// A scan's update into submap `id` (created if new); the caller inserts it into the map.
+  void add(SubmapId id, const ScanUpdate& update);
+  /// A map read from a file: the start of the settled part.
+  void addSettled(const octomap::OcTree& map);
+  /// Submap `id` joins the settled part of the map where it is now: it never moves again, and
+  /// its evidence counts once per voxel there (8 bytes a voxel of the settled part).
+  void settle(SubmapId id);
+  void close(SubmapId id);
+  /// Applies the changes to the submaps and returns the voxels of the map that change with them
+  /// (for OccupancyMap::assign).
+  Voxels apply(const std::vector<Change>& changes);
+
+  /// Submaps not settled.
+  std::size_t size() const { return submaps_.size() - submaps_.count(kSettled); }
+  std::size_t voxels() const;
+  std::size_t bytes() const;
+
+ private:
+  static constexpr SubmapId kSettled = 0;
+  Submap& submap(SubmapId id);
+
+  const octomap::OcTree& grid_;
+  std::map<SubmapId, Submap> submaps_;
+};
+
+}  // namespace ccir_mapping::core::information

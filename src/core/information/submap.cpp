@@ -1,0 +1,136 @@
+#include "ccir_mapping/core/information/submap.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ccir_mapping/core/information/flat_key_set.h"
+
+namespace ccir_mapping::core::information {
+
+Submap::Model Submap::Model::of(const octomap::OcTree& tree) {
+  return {tree.getProbHitLog(), tree.getProbMissLog(), tree.getClampingThresMinLog(),
+          tree.getClampingThresMaxLog()};
+}
+
+void Submap::grow(const octomap::OcTreeKey& key) {
+  for (int a = 0; a < 3; ++a) {
+    min_[a] = std::min(min_[a], key[a]);
+    max_[a] = std::max(max_[a], key[a]);
+  }
+}
+
+void Submap::add(const ScanUpdate& update) {
+  if (closed_) return;
+  added_.reserve(added_.size() + update.free.size() + update.occupied.size());
+  for (const auto& key : update.free) {
+    added_.push_back(FlatKeySet::pack(key));
+    grow(key);
+  }
+  for (const auto& key : update.occupied) {
+    added_.push_back(FlatKeySet::pack(key) | kHit);
+    grow(key);
+  }
+}
+
+void Submap::add(const octomap::OcTreeKey& key, float log_odds) {
+  // A voxel read from a file: a step from 0 that lands on its log-odds.
+  const auto mils =
+      static_cast<std::int16_t>(std::lround(std::clamp(log_odds, model_.min, model_.max) * 1e3F));
+  voxels_.push_back({key, mils});
+  grow(key);
+}
+
+template <class Step>
+void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
+  constexpr std::uint64_t kKey = kHit - 1;
+  constexpr std::uint64_t kNone = ~std::uint64_t{0};
+  std::vector<Voxel> merged;
+  merged.reserve(voxels_.size() + codes.size() / 2);
+  std::size_t i = 0;
+  std::size_t j = 0;
+  while (i < voxels_.size() || j < codes.size()) {
+    const std::uint64_t old_key = i < voxels_.size() ? keyOrder(voxels_[i].key) : kNone;
+    const std::uint64_t new_key = j < codes.size() ? (codes[j] & kKey) : kNone;
+    if (old_key < new_key) {
+      merged.push_back(voxels_[i++]);
+      continue;
+    }
+    float log_odds =
+        old_key == new_key ? static_cast<float>(voxels_[i++].log_odds_mils) * 1e-3F : 0.0F;
+    for (; j < codes.size() && (codes[j] & kKey) == new_key; ++j) {
+      log_odds = std::clamp(step(log_odds, codes[j]), model_.min, model_.max);
+    }
+    merged.push_back(
+        {FlatKeySet::unpack(new_key), static_cast<std::int16_t>(std::lround(log_odds * 1e3F))});
+  }
+  merged.shrink_to_fit();
+  voxels_.swap(merged);
+}
+
+void Submap::fold() {
+  if (added_.empty()) {
+    std::sort(voxels_.begin(), voxels_.end(),
+              [](const Voxel& a, const Voxel& b) { return keyOrder(a.key) < keyOrder(b.key); });
+    return;
+  }
+  // Stable: each voxel's hits and misses stay in the order they were added, as the map
+  // applied them, so clamping cuts where it cut in the map.
+  FlatKeySet::sortCodes(added_);
+  merge(added_, [this](float log_odds, std::uint64_t code) {
+    return log_odds + ((code & kHit) ? model_.hit : model_.miss);
+  });
+  std::vector<std::uint64_t>().swap(added_);
+}
+
+void Submap::absorb(const Submap& other, const octomap::OcTree& grid) {
+  fold();
+  std::vector<std::uint64_t> codes;
+  codes.reserve(other.voxels());
+  other.forEach(grid, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
+    codes.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
+    grow(key);
+  });
+  FlatKeySet::sortCodes(codes);
+  merge(codes, [](float log_odds, std::uint64_t code) {
+    return log_odds + static_cast<float>(static_cast<std::int16_t>(code >> 48)) * 1e-3F;
+  });
+}
+
+void Submap::close() {
+  fold();
+  closed_ = true;
+}
+
+void Submap::setDelta(const Pose3& delta) {
+  delta_ = delta;
+  moved_ = !delta.isApprox(Pose3::Identity(), 1e-12);
+}
+
+std::pair<octomap::OcTreeKey, octomap::OcTreeKey> Submap::bounds(
+    const octomap::OcTree& grid) const {
+  if (voxels() == 0) return {min_, max_};
+  const octomap::point3d lo = grid.keyToCoord(min_);
+  const octomap::point3d hi = grid.keyToCoord(max_);
+  Eigen::Vector3d min = Eigen::Vector3d::Constant(1e300);
+  Eigen::Vector3d max = -min;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
+                            (corner & 4) ? hi.z() : lo.z());
+    min = min.cwiseMin(delta_ * c);
+    max = max.cwiseMax(delta_ * c);
+  }
+  const double res = grid.getResolution();
+  octomap::OcTreeKey min_key;
+  octomap::OcTreeKey max_key;
+  for (int a = 0; a < 3; ++a) {
+    min_key[a] = grid.coordToKey(std::max(min[a] - res, -grid.getNodeSize(0) / 2 * 0.999));
+    max_key[a] = grid.coordToKey(std::min(max[a] + res, grid.getNodeSize(0) / 2 * 0.999));
+  }
+  return {min_key, max_key};
+}
+
+std::size_t Submap::bytes() const {
+  return voxels_.capacity() * sizeof(Voxel) + added_.capacity() * sizeof(std::uint64_t);
+}
+
+}  // namespace ccir_mapping::core::information

@@ -1,0 +1,111 @@
+#include "ccir_mapping/core/information/submap_set.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ccir_mapping/core/information/flat_key_set.h"
+
+namespace ccir_mapping::core::information {
+
+Submap& SubmapSet::submap(SubmapId id) {
+  return submaps_.try_emplace(id, Submap::Model::of(grid_)).first->second;
+}
+
+void SubmapSet::add(SubmapId id, const ScanUpdate& update) { submap(id).add(update); }
+
+void SubmapSet::addSettled(const octomap::OcTree& map) {
+  Submap read(Submap::Model::of(grid_));
+  for (auto it = map.begin_leafs(), end = map.end_leafs(); it != end; ++it) {
+    read.add(it.getKey(), it->getLogOdds());
+  }
+  read.close();
+  submap(kSettled).absorb(read, grid_);
+}
+
+void SubmapSet::settle(SubmapId id) {
+  const auto it = submaps_.find(id);
+  if (it == submaps_.end() || id == kSettled) return;
+  it->second.fold();
+  submap(kSettled).absorb(it->second, grid_);
+  submaps_.erase(it);
+}
+
+void SubmapSet::close(SubmapId id) {
+  if (const auto it = submaps_.find(id); it != submaps_.end()) it->second.close();
+}
+
+SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
+  // The voxels to recompute: where the changed submaps were, and where they are now.
+  FlatKeySet affected;
+  const auto mark = [&](const octomap::OcTreeKey& key, std::int16_t) { affected.insert(key); };
+  for (const Change& change : changes) {
+    Submap& s = submap(change.id);
+    s.fold();
+    s.forEach(grid_, mark);
+    if (change.updates) {
+      s = Submap(Submap::Model::of(grid_));
+      for (const auto& update : *change.updates) s.add(update);
+      s.close();
+    }
+    s.setDelta(change.delta);
+    s.forEach(grid_, mark);
+  }
+  if (affected.size() == 0) return {};
+  octomap::OcTreeKey lo(0xFFFF, 0xFFFF, 0xFFFF);
+  octomap::OcTreeKey hi(0, 0, 0);
+  std::vector<std::uint64_t> keys;
+  keys.reserve(affected.size());
+  affected.forEach([&](const octomap::OcTreeKey& key) {
+    keys.push_back(FlatKeySet::pack(key));
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], key[a]);
+      hi[a] = std::max(hi[a], key[a]);
+    }
+  });
+  FlatKeySet::sortCodes(keys);
+  // What every submap that reaches them says of them: the key, and the log-odds above it.
+  std::vector<std::uint64_t> said;
+  for (auto& [id, s] : submaps_) {
+    const auto [min, max] = s.bounds(grid_);
+    bool overlaps = true;
+    for (int a = 0; a < 3; ++a) overlaps &= min[a] <= hi[a] && lo[a] <= max[a];
+    if (!overlaps) continue;
+    s.fold();
+    s.forEachWithin(lo, hi, grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
+      if (affected.contains(key)) {
+        said.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)}
+                                                   << 48);
+      }
+    });
+  }
+  FlatKeySet::sortCodes(said);
+  const Submap::Model model = Submap::Model::of(grid_);
+  constexpr std::uint64_t kKey = (std::uint64_t{1} << 48) - 1;
+  Voxels voxels;
+  voxels.reserve(keys.size());
+  std::size_t j = 0;
+  for (const std::uint64_t key : keys) {
+    std::optional<float> log_odds;
+    for (; j < said.size() && (said[j] & kKey) == key; ++j) {
+      const auto mils = static_cast<std::int16_t>(said[j] >> 48);
+      log_odds = log_odds.value_or(0.0F) + static_cast<float>(mils) * 1e-3F;
+    }
+    if (log_odds) log_odds = std::clamp(*log_odds, model.min, model.max);
+    voxels.emplace_back(FlatKeySet::unpack(key), log_odds);
+  }
+  return voxels;
+}
+
+std::size_t SubmapSet::voxels() const {
+  std::size_t n = 0;
+  for (const auto& [id, s] : submaps_) n += s.voxels();
+  return n;
+}
+
+std::size_t SubmapSet::bytes() const {
+  std::size_t n = 0;
+  for (const auto& [id, s] : submaps_) n += s.bytes();
+  return n;
+}
+
+}  // namespace ccir_mapping::core::information
