@@ -105,7 +105,7 @@ class MapperNodelet final : public PipelineNodelet {
   }
 
   void onTimer() {
-    stage_->followPoses();
+    stage_->followPoses(ros::SteadyTime::now().toSec());  // the cost is paid in wall time
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = settings_.frames.map_frame;

@@ -279,7 +279,7 @@ void measureSubmaps(const Options& o, const std::vector<Keyframe>& frames, Resul
   r.insert_all_ms = millisecondsSince(start);
   stage.setOptimizedPoses(corrected);
   start = std::chrono::steady_clock::now();
-  r.submaps_moved = stage.followPoses();
+  r.submaps_moved = stage.followPoses(0.0);
   r.reanchor_ms = millisecondsSince(start);
   const auto stats = stage.stats();
   r.map_mb = stats.map_mb;

@@ -10,6 +10,7 @@ namespace ccir_mapping::core::information {
 MapperStage::MapperStage(std::string robot, const MapperParams& params, Hooks hooks)
     : robot_(std::move(robot)),
       hooks_(std::move(hooks)),
+      wait_s_per_mvoxel_(params.reanchor_wait_s_per_mvoxel),
       map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
       keyframes_(params),
       // The map's tree is never replaced (resume loads into it), so the reference stays good.
@@ -67,8 +68,9 @@ void MapperStage::insert(const std::vector<PlacedScan>& scans) {
   });
 }
 
-std::size_t MapperStage::followPoses() {
+std::size_t MapperStage::followPoses(double now_s) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (now_s < next_follow_s_) return 0;
   std::size_t changed = 0;
   hooks_.run("reanchor", [&] {
     std::vector<SubmapSet::Change> changes;
@@ -93,6 +95,7 @@ std::size_t MapperStage::followPoses() {
     if (!changes.empty()) {
       const auto voxels = submaps_.apply(changes);
       map_->write([&](OccupancyMap& map) { map.assign(voxels); });
+      next_follow_s_ = now_s + wait_s_per_mvoxel_ * static_cast<double>(voxels.size()) / 1e6;
     }
     const auto settled = keyframes_.settle();
     for (const SubmapId id : settled) submaps_.settle(id);

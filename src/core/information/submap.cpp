@@ -21,7 +21,6 @@ void Submap::grow(const octomap::OcTreeKey& key) {
 
 void Submap::add(const ScanUpdate& update) {
   if (closed_) return;
-  added_.reserve(added_.size() + update.free.size() + update.occupied.size());
   for (const auto& key : update.free) {
     added_.push_back(FlatKeySet::pack(key));
     grow(key);

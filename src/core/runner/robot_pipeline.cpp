@@ -181,7 +181,7 @@ void RobotPipeline::onScan(double now_s, const routing::WireScan& scan) {
 
 void RobotPipeline::runTimers(double now_s) {
   if (optimisation_.due(now_s)) backend_->tick();
-  if (map_update_.due(now_s)) map_.followPoses();
+  if (map_update_.due(now_s)) map_.followPoses(now_s);
   if (offers_.due(now_s)) {
     route(now_s, measured("route", [&] { return broker_.runPeriod(now_s); }));
   }

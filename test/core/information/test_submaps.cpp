@@ -237,7 +237,7 @@ TEST(MapperStage, MovingSubmapsEqualsInsertingTheirScansAtTheNewPosesWithinOneVo
     as_before.insert(*scanFrom(poses[i]), poses[i]);
   }
   stage.setOptimizedPoses(corrected);
-  EXPECT_EQ(stage.followPoses(), 2U);
+  EXPECT_EQ(stage.followPoses(0.0), 2U);
   const auto stats = stage.stats();
   EXPECT_EQ(stats.submap_moves, 2U);
   EXPECT_EQ(stats.reintegrations, 0U);
@@ -249,7 +249,22 @@ TEST(MapperStage, MovingSubmapsEqualsInsertingTheirScansAtTheNewPosesWithinOneVo
                 0.03 * inserted_again.boxKnownVolumeM3());
     return 0;
   });
-  EXPECT_EQ(stage.followPoses(), 0U) << "nothing moved since";
+  EXPECT_EQ(stage.followPoses(1e6), 0U) << "nothing moved since";
+}
+
+TEST(MapperStage, WaitsInProportionToTheVoxelsItRecomputed) {
+  MapperParams p = params();
+  p.reanchor_wait_s_per_mvoxel = 1000.0;  // 1 ms a voxel
+  MapperStage stage("robot_a", p);
+  stage.addOwn(1, scanFrom(at(0, 0)), at(0, 0));
+  stage.setOptimizedPoses({{1, at(0, 1)}});
+  ASSERT_EQ(stage.followPoses(100.0), 1U) << "the first waits for nothing";
+  // Moving the room's scan recomputes where it was and is: some thousands of voxels.
+  stage.setOptimizedPoses({{1, at(0, 2)}});
+  EXPECT_EQ(stage.followPoses(102.0), 0U) << "waits";
+  EXPECT_EQ(stage.stats().submap_moves, 1U);
+  EXPECT_EQ(stage.followPoses(1e6), 1U) << "the move gathered meanwhile";
+  EXPECT_EQ(stage.stats().submap_moves, 2U);
 }
 
 TEST(MapperStage, ASubmapWhoseScansBentIsIntegratedAgainAtTheirNewPoses) {
@@ -257,21 +272,23 @@ TEST(MapperStage, ASubmapWhoseScansBentIsIntegratedAgainAtTheirNewPoses) {
   stage.addOwn(1, scanFrom(at(0, 0)), at(0, 0));
   stage.addOwn(2, scanFrom(at(2, 0)), at(2, 0));
   stage.setOptimizedPoses({{2, at(2, 0.6, 3)}});
-  EXPECT_EQ(stage.followPoses(), 1U);
+  EXPECT_EQ(stage.followPoses(0.0), 1U);
   EXPECT_EQ(stage.stats().reintegrations, 1U);
   OccupancyMap direct(params());
   direct.insert(*scanFrom(at(0, 0)), at(0, 0));
   direct.insert(*scanFrom(at(2, 0)), at(2, 0.6, 3));
   // One submap: the same voxels with the same log-odds, but for the submap's 0.001 quantum.
+  std::size_t differ = 0;
   stage.map()->read([&](const OccupancyMap& map) {
     EXPECT_EQ(map.tree().size(), direct.tree().size());
     for (auto it = direct.tree().begin_leafs(); it != direct.tree().end_leafs(); ++it) {
       const auto* node = map.tree().search(it.getKey());
-      EXPECT_TRUE(node && std::abs(node->getLogOdds() - it->getLogOdds()) < 1e-3);
+      differ += !node || std::abs(node->getLogOdds() - it->getLogOdds()) >= 1e-3;
     }
     EXPECT_NEAR(map.boxEntropyBits(), direct.boxEntropyBits(), 1e-3 * direct.boxEntropyBits());
     return 0;
   });
+  EXPECT_EQ(differ, 0U);
 }
 
 TEST(MapperStage, SubmapsThatOverlapAreOneVoxelEachInTheStatistics) {
@@ -281,7 +298,7 @@ TEST(MapperStage, SubmapsThatOverlapAreOneVoxelEachInTheStatistics) {
   stage.addOwn(1, scanFrom(at(0, 0)), at(0, 0));
   stage.addOwn(2, scanFrom(at(1, 0)), at(1, 0));
   stage.setOptimizedPoses({{1, at(0, 1)}, {2, at(1, 1)}});
-  EXPECT_EQ(stage.followPoses(), 2U);
+  EXPECT_EQ(stage.followPoses(0.0), 2U);
   OccupancyMap direct(p);
   direct.insert(*scanFrom(at(0, 0)), at(0, 1));
   direct.insert(*scanFrom(at(1, 0)), at(1, 1));
@@ -299,11 +316,11 @@ TEST(MapperStage, SettledSubmapsKeepTheirEvidenceWhereTheyWereWhenLiveOnesMove) 
   MapperStage stage("robot_a", p);
   stage.addOwn(1, scanFrom(at(0, 0)), at(0, 0));
   stage.addOwn(2, scanFrom(at(1, 0)), at(1, 0));
-  stage.followPoses();  // two live scans: more than 1.25 x the window of one, so 1 settles
+  stage.followPoses(0.0);  // two live scans: more than 1.25 x the window of one, so 1 settles
   EXPECT_EQ(stage.stats().settled_scans, 1U);
   EXPECT_EQ(stage.stats().submaps, 1U);
   stage.setOptimizedPoses({{1, at(0, 1)}, {2, at(1, 1)}});
-  EXPECT_EQ(stage.followPoses(), 1U) << "keyframe 2 only";
+  EXPECT_EQ(stage.followPoses(0.0), 1U) << "keyframe 2 only";
   OccupancyMap expected(p);
   expected.insert(*scanFrom(at(0, 0)), at(0, 0));
   expected.insert(*scanFrom(at(1, 0)), at(1, 1));
@@ -374,7 +391,7 @@ TEST(MapperStage, AResumedStageContinuesTheSavedMapAndKeepsItWhenSubmapsMove) {
   after.addOwn(2, scanFrom(at(0, 0)), at(30, 0));
   EXPECT_GT(occupiedCount(after), occupiedCount(before) + 100);
   after.setOptimizedPoses({{2, at(30, 2)}});
-  EXPECT_EQ(after.followPoses(), 1U);
+  EXPECT_EQ(after.followPoses(0.0), 1U);
   EXPECT_GT(occupiedCount(after), occupiedCount(before) + 100) << "the saved map survived";
   EXPECT_GE(known(after), known(before));
   EXPECT_THROW(after.resume(dir), std::logic_error) << "after scans were added";
