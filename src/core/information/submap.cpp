@@ -36,6 +36,7 @@ void Submap::add(const octomap::OcTreeKey& key, float log_odds) {
   const auto mils =
       static_cast<std::int16_t>(std::lround(std::clamp(log_odds, model_.min, model_.max) * 1e3F));
   voxels_.push_back({key, mils});
+  unsorted_ = true;
   grow(key);
 }
 
@@ -67,11 +68,12 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
 }
 
 void Submap::fold() {
-  if (added_.empty()) {
+  if (unsorted_) {
     std::sort(voxels_.begin(), voxels_.end(),
               [](const Voxel& a, const Voxel& b) { return keyOrder(a.key) < keyOrder(b.key); });
-    return;
+    unsorted_ = false;
   }
+  if (added_.empty()) return;
   // Stable: each voxel's hits and misses stay in the order they were added, as the map
   // applied them, so clamping cuts where it cut in the map.
   FlatKeySet::sortCodes(added_);

@@ -115,6 +115,7 @@ class Submap {
   Pose3 delta_ = Pose3::Identity();
   bool moved_ = false;
   bool closed_ = false;
+  bool unsorted_ = false;  // voxels_ after add(key, log_odds)
 };
 
 }  // namespace ccir_mapping::core::information
