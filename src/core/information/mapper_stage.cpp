@@ -143,7 +143,10 @@ MapperStage::Stats MapperStage::stats() const {
   map_->read([&](const OccupancyMap& map) {
     stats.entropy_bits = map.boxEntropyBits();
     stats.known_volume_m3 = map.boxKnownVolumeM3();
-    stats.map_mb = static_cast<double>(map.tree().memoryUsage()) / 1e6;
+    // OcTree::memoryUsage() walks the whole tree; the node count is kept. A node is 16 bytes,
+    // and about one in eight is an inner node with an array of 8 child pointers.
+    stats.map_mb = static_cast<double>(map.tree().size()) *
+                   (sizeof(octomap::OcTreeNode) + sizeof(void*)) / 1e6;
     return 0;
   });
   std::lock_guard<std::mutex> lock(mutex_);

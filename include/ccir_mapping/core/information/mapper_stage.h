@@ -36,7 +36,8 @@ class MapperStage {
     /// Submaps moved as blocks, and integrated again, since the start.
     std::uint64_t submap_moves = 0;
     std::uint64_t reintegrations = 0;
-    /// Memory of the map's octree and of the submaps' evidence, MB.
+    /// Memory of the map's octree (estimated from its node count) and of the submaps' evidence,
+    /// MB.
     double map_mb = 0.0;
     double submap_mb = 0.0;
   };
