@@ -49,7 +49,7 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
   std::size_t i = 0;
   std::size_t j = 0;
   while (i < voxels_.size() || j < codes.size()) {
-    const std::uint64_t old_key = i < voxels_.size() ? keyOrder(voxels_[i].key) : kNone;
+    const std::uint64_t old_key = i < voxels_.size() ? FlatKeySet::pack(voxels_[i].key) : kNone;
     const std::uint64_t new_key = j < codes.size() ? (codes[j] & kKey) : kNone;
     if (old_key < new_key) {
       merged.push_back(voxels_[i++]);
@@ -69,8 +69,9 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
 
 void Submap::fold() {
   if (unsorted_) {
-    std::sort(voxels_.begin(), voxels_.end(),
-              [](const Voxel& a, const Voxel& b) { return keyOrder(a.key) < keyOrder(b.key); });
+    std::sort(voxels_.begin(), voxels_.end(), [](const Voxel& a, const Voxel& b) {
+      return FlatKeySet::pack(a.key) < FlatKeySet::pack(b.key);
+    });
     unsorted_ = false;
   }
   if (added_.empty()) return;

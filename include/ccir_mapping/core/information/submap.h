@@ -12,6 +12,7 @@
 #include <octomap/OcTree.h>
 
 #include "ccir_mapping/core/common/types.h"
+#include "ccir_mapping/core/information/flat_key_set.h"
 #include "ccir_mapping/core/information/occupancy_map.h"
 
 namespace ccir_mapping::core::information {
@@ -78,9 +79,11 @@ class Submap {
         if (inside(k)) f(k, mils);
       });
     }
-    const auto first = std::lower_bound(
-        voxels_.begin(), voxels_.end(), octomap::OcTreeKey(lo[0], 0, 0),
-        [](const Voxel& v, const octomap::OcTreeKey& k) { return keyOrder(v.key) < keyOrder(k); });
+    const auto first =
+        std::lower_bound(voxels_.begin(), voxels_.end(), octomap::OcTreeKey(lo[0], 0, 0),
+                         [](const Voxel& v, const octomap::OcTreeKey& k) {
+                           return FlatKeySet::pack(v.key) < FlatKeySet::pack(k);
+                         });
     for (auto v = first; v != voxels_.end() && v->key[0] <= hi[0]; ++v) {
       if (inside(v->key)) f(v->key, v->log_odds_mils);
     }
@@ -97,9 +100,6 @@ class Submap {
     std::int16_t log_odds_mils;  // |log-odds| stays below the clamping bounds' (~4.6)
   };
   static constexpr std::uint64_t kHit = std::uint64_t{1} << 48;
-  static std::uint64_t keyOrder(const octomap::OcTreeKey& k) {
-    return (std::uint64_t{k[0]} << 32) | (std::uint64_t{k[1]} << 16) | k[2];  // FlatKeySet::pack
-  }
   void grow(const octomap::OcTreeKey& key);
   /// Merges `codes` (a packed key in the low 48 bits, sorted stably by it) into the evidence:
   /// each voxel's log-odds goes through step(log_odds, code) for each of its codes in turn.
