@@ -1,7 +1,8 @@
 // Backend: keyframes + loop closures -> optimised trajectory, map -> odom and team transforms on
 // tf, TeamTransform, teammates' keyframes as the team graph places them, pose uncertainty.
 // Callbacks hand their input to core::backend::BackendStage, which optimises on its own thread
-// (at optimize_period_s and as soon as a loop closure arrives) and routes each loop closure.
+// (at optimize_period_s: keyframes placed, a solve when a loop closure arrived) and routes each
+// loop closure.
 #include <nav_msgs/Path.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <visualization_msgs/MarkerArray.h>

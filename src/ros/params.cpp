@@ -218,6 +218,8 @@ void load(ParamReader& reader, BackendSettings& config) {
                     core::pose_graph::kRobustKernelChoices, &core::pose_graph::toString);
   reader.read("switch_prior_sigma", p.switch_prior_sigma);
   reader.read("optimize_period_s", p.optimize_period_s);
+  reader.read("solve_window_keyframes", p.solve_window_keyframes);
+  reader.read("full_solve_period_s", p.full_solve_period_s);
   reader.read("uncertainty_period_s", p.uncertainty_period_s);
   reader.read("max_solve_time_s", p.max_solve_time_s);
   reader.read("max_iterations", p.max_iterations);

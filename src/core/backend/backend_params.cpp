@@ -14,6 +14,8 @@ std::vector<std::string> BackendParams::validate() const {
   check.inHalfOpenRange("team_disagreement_m", team_disagreement_m, 0.0, 1000.0);
   check.inHalfOpenRange("team_disagreement_deg", team_disagreement_deg, 0.0, 180.0);
   check.inRange("optimize_period_s", optimize_period_s, 0.01, 3600.0);
+  check.inRange("solve_window_keyframes", solve_window_keyframes, 0, 1000000);
+  check.inRange("full_solve_period_s", full_solve_period_s, 0.0, 86400.0);
   check.inRange("uncertainty_period_s", uncertainty_period_s, 0.0, 3600.0);
   check.inRange("max_solve_time_s", max_solve_time_s, 0.001, 60.0);
   check.inRange("max_iterations", max_iterations, 1, 10000);

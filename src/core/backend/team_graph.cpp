@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
 #include <tuple>
@@ -29,6 +30,13 @@ using pose_graph::stepCovariance;
 
 namespace {
 
+alignment::AlignmentParams emParams(const BackendParams& p) {
+  alignment::AlignmentParams em;
+  em.min_inliers = p.min_team_inliers;
+  em.min_inlier_margin = p.team_inlier_margin;
+  return em;
+}
+
 OptimizerParams optimizerParams(const BackendParams& p) {
   OptimizerParams o;
   o.kernel = p.robust_kernel;
@@ -44,7 +52,8 @@ TeamGraph::TeamGraph(std::string robot, const BackendParams& params)
     : robot_(std::move(robot)),
       params_(validated(params)),
       optimizer_(optimizerParams(params)),
-      odom_uncertainty_(params.odometry) {
+      odom_uncertainty_(params.odometry),
+      gate_(emParams(params)) {
   graph_.dimension = 3;
 }
 
@@ -67,12 +76,14 @@ bool TeamGraph::addKeyframe(KeyframeId id, Stamp stamp, const Pose3& odom_pose) 
   stamps_.push_back(stamp);
   odom_poses_.push_back(odom_pose);
   odom_covariances_.push_back(odom_uncertainty_.advance(odom_pose));
+  solve_due_ = solve_due_ || loop_ends_.count({robot_, id});
   return true;
 }
 
 bool TeamGraph::addPeerKeyframe(const std::string& robot, KeyframeId id, const Pose3& pose) {
   if (robot == robot_ || robot.empty() || !isValidPose(pose)) return false;
   peers_[robot][id] = pose;
+  solve_due_ = solve_due_ || loop_ends_.count({robot, id});
   return true;
 }
 
@@ -88,10 +99,13 @@ bool TeamGraph::addLoopClosure(const LoopClosureData& loop) {
   if (llt.info() != Eigen::Success || knows(loop)) return false;
   loops_.push_back(loop);
   loop_keys_.insert(keyOf(loop));
+  loop_ends_.insert({loop.robot_from, loop.keyframe_from});
+  loop_ends_.insert({loop.robot_to, loop.keyframe_to});
+  solve_due_ = true;
   return true;
 }
 
-TeamGraph::LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
+LoopKey TeamGraph::keyOf(const LoopClosureData& loop) {
   KeyframeOf from{loop.robot_from, loop.keyframe_from};
   KeyframeOf to{loop.robot_to, loop.keyframe_to};
   return from < to ? LoopKey{from, to} : LoopKey{to, from};
@@ -117,53 +131,74 @@ int TeamGraph::ownIndex(KeyframeId id) const {
   return it == index_.end() ? -1 : it->second;
 }
 
-void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
-  snapshot.loop_lines.clear();
-  snapshot.loops = {};
-  PoseGraph graph = graph_;  // own keyframes and odometry
-  const std::size_t own_count = graph.poses.size();
+void TeamGraph::placeJoinedKeyframes() {
+  for (auto& [peer, joined] : joined_) {
+    const Pose3* previous = nullptr;
+    const Pose3* previous_placed = nullptr;
+    for (const auto& [id, pose] : peers_.at(peer)) {
+      auto placed = joined.poses.find(id);
+      if (placed == joined.poses.end()) {
+        const Pose3 at = previous ? Pose3(*previous_placed * previous->inverse() * pose)
+                                  : Pose3(joined.transform * pose);
+        placed = joined.poses.emplace(id, at).first;
+      }
+      previous = &pose;
+      previous_placed = &placed->second;
+    }
+  }
+}
+
+TeamGraph::Assembled TeamGraph::assemble() const {
+  Assembled a;
+  a.graph = graph_;  // own keyframes and odometry
+  a.own_count = a.graph.poses.size();
+  a.chains.emplace_back(0, a.own_count);
+  for (const KeyframeId id : ids_) a.nodes.emplace_back(robot_, id);
+  a.edge_keys.resize(a.graph.edges.size());
+  a.edge_links.resize(a.graph.edges.size());
+  const auto add_loop = [&](int from, int to, const LoopClosureData& loop, const Pose3& relative,
+                            const std::optional<Link>& link) {
+    PoseGraphEdge edge;
+    edge.from = from;
+    edge.to = to;
+    edge.measurement = relative;
+    edge.information = loop.covariance.inverse();  // first order for an inverted direction
+    edge.loop = true;
+    a.graph.edges.push_back(edge);
+    a.edge_keys.push_back(keyOf(loop));
+    a.edge_links.push_back(link);
+  };
   for (const auto& loop : loops_) {
     if (loop.robot_from != robot_ || loop.robot_to != robot_) continue;
     const int from = ownIndex(loop.keyframe_from);
     const int to = ownIndex(loop.keyframe_to);
     if (from < 0 || to < 0) continue;
-    PoseGraphEdge edge;
-    edge.from = from;
-    edge.to = to;
-    edge.measurement = loop.relative;
-    edge.information = loop.covariance.inverse();
-    edge.loop = true;
-    graph.edges.push_back(edge);
-    ++snapshot.loops.intra;
+    add_loop(from, to, loop, loop.relative, std::nullopt);
+    ++a.loops.intra;
   }
-  // Each joined teammate's known keyframes, in id order: a keyframe placed before keeps its
-  // optimised pose, a new one continues from the previous node by its odometry step (or is
-  // placed with the transform when it is the first).
-  std::map<std::pair<std::string, KeyframeId>, int> peer_node;
-  std::vector<std::pair<std::string, KeyframeId>> node_keyframe;  // of nodes from own_count
+  // Each joined teammate's known keyframes in id order, chained by its odometry steps.
+  std::map<KeyframeOf, int> peer_node;
   for (const auto& [peer, joined] : joined_) {
+    const std::size_t begin = a.graph.poses.size();
     const Pose3* previous = nullptr;
     for (const auto& [id, pose] : peers_.at(peer)) {
-      const int node = static_cast<int>(graph.poses.size());
-      if (const auto known = joined.poses.find(id); known != joined.poses.end()) {
-        graph.poses.push_back(known->second);
-      } else if (previous) {
-        graph.poses.push_back(graph.poses.back() * previous->inverse() * pose);
-      } else {
-        graph.poses.push_back(joined.transform * pose);
-      }
+      const int node = static_cast<int>(a.graph.poses.size());
+      a.graph.poses.push_back(joined.poses.at(id));
       if (previous) {
         PoseGraphEdge edge;
         edge.from = node - 1;
         edge.to = node;
         edge.measurement = previous->inverse() * pose;  // drift grows with the distance between
         edge.information = stepCovariance(edge.measurement, params_.odometry).inverse();
-        graph.edges.push_back(edge);
+        a.graph.edges.push_back(edge);
+        a.edge_keys.emplace_back();
+        a.edge_links.emplace_back();
       }
       previous = &pose;
       peer_node[{peer, id}] = node;
-      node_keyframe.emplace_back(peer, id);
+      a.nodes.emplace_back(peer, id);
     }
+    a.chains.emplace_back(begin, a.graph.poses.size());
   }
   // Inter-robot loops whose keyframes are both in the graph (own and joined teammates'): in it
   // when gated in, else reported rejected.
@@ -172,8 +207,6 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
     const auto it = peer_node.find({robot, id});
     return it == peer_node.end() ? -1 : it->second;
   };
-  std::vector<std::pair<int, int>> gated_out;
-  std::vector<std::pair<Link, LoopKey>> edge_loop;  // of each inter-robot edge, in order
   for (const auto& loop : loops_) {
     const auto inter = oriented(loop);
     if (!inter) continue;
@@ -181,58 +214,135 @@ void TeamGraph::solve(BackendSnapshot& snapshot, double max_time_s) {
     const int from = node_of(link.first, first);
     const int to = node_of(link.second, second);
     if (from < 0 || to < 0) continue;
-    ++snapshot.loops.inter;
-    const LoopKey key = keyOf(loop);
-    if (!gate_[link].count(key) && !kept_[link].count(key)) {
-      gated_out.emplace_back(from, to);
-      continue;
+    ++a.loops.inter;
+    if (gate_.admits(link, keyOf(loop))) {
+      add_loop(from, to, loop, relative, link);
+    } else {
+      a.gated_out.emplace_back(from, to);
     }
-    PoseGraphEdge edge;
-    edge.from = from;
-    edge.to = to;
-    edge.measurement = relative;
-    edge.information = loop.covariance.inverse();  // first order for the inverted direction
-    edge.loop = true;
-    graph.edges.push_back(edge);
-    edge_loop.emplace_back(link, key);
   }
+  return a;
+}
 
-  kept_.clear();
-  if (graph.poses.size() < 2) return;
-  const OptimizationResult result = optimizer_.optimize(graph, max_time_s);
-  graph_.poses.assign(graph.poses.begin(), graph.poses.begin() + own_count);
-  for (std::size_t k = own_count; k < graph.poses.size(); ++k) {
-    const auto& [peer, id] = node_keyframe[k - own_count];
+std::optional<std::vector<bool>> TeamGraph::window(const Assembled& a) const {
+  const auto n = a.graph.poses.size();
+  const auto size = static_cast<std::size_t>(params_.solve_window_keyframes);
+  std::vector<bool> variable(n, false);
+  for (const auto& [begin, end] : a.chains) {
+    for (std::size_t i = std::max(begin, end - std::min(end - begin, size)); i < end; ++i) {
+      variable[i] = i > 0;
+    }
+  }
+  for (std::size_t k = 0; k < a.graph.edges.size(); ++k) {
+    const PoseGraphEdge& e = a.graph.edges[k];
+    if (e.loop && !loop_states_.count(a.edge_keys[k]) &&
+        !variable[static_cast<std::size_t>(e.from)] && !variable[static_cast<std::size_t>(e.to)]) {
+      return std::nullopt;  // a new loop between keyframes the window holds
+    }
+  }
+  return variable;
+}
+
+int TeamGraph::solve(Assembled& a, bool full, double max_time_s, BackendSnapshot& snapshot) {
+  PoseGraph& graph = a.graph;
+  const std::size_t n = graph.poses.size();
+  std::optional<std::vector<bool>> variable;
+  if (!full && params_.solve_window_keyframes > 0) variable = window(a);
+  const bool whole = !variable;
+  snapshot.solved = whole ? BackendSnapshot::Solve::kFull : BackendSnapshot::Solve::kWindow;
+  if (whole) {
+    variable.emplace(n, true);
+    (*variable)[0] = false;
+  }
+  // The problem: the variable poses, the constant ones an edge ties them to, and those edges.
+  std::vector<int> sub_index(n, -1);
+  std::vector<std::size_t> sub_edges;
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+    const auto from = static_cast<std::size_t>(graph.edges[k].from);
+    const auto to = static_cast<std::size_t>(graph.edges[k].to);
+    if (!(*variable)[from] && !(*variable)[to]) continue;
+    sub_edges.push_back(k);
+    sub_index[from] = sub_index[to] = 0;
+  }
+  PoseGraph sub;
+  sub.dimension = graph.dimension;
+  pose_graph::SolveStart start;
+  std::vector<std::size_t> sub_nodes;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (sub_index[i] < 0) continue;
+    sub_index[i] = static_cast<int>(sub.poses.size());
+    sub.poses.push_back(graph.poses[i]);
+    start.fixed.push_back(!(*variable)[i]);
+    sub_nodes.push_back(i);
+  }
+  for (const std::size_t k : sub_edges) {
+    PoseGraphEdge edge = graph.edges[k];
+    edge.from = sub_index[static_cast<std::size_t>(edge.from)];
+    edge.to = sub_index[static_cast<std::size_t>(edge.to)];
+    sub.edges.push_back(std::move(edge));
+    // A windowed solve resumes each loop's switch; a full one starts every switch afresh.
+    const auto state = loop_states_.find(a.edge_keys[k]);
+    start.switches.push_back(graph.edges[k].loop && !whole && state != loop_states_.end()
+                                 ? state->second.switch_value
+                                 : optimizer_.initialSwitch());
+  }
+  if (sub.poses.size() < 2) return 0;
+  const OptimizationResult result = optimizer_.optimize(sub, max_time_s, start);
+  int solved = 0;
+  for (std::size_t j = 0; j < sub_nodes.size(); ++j) {
+    if (!(*variable)[sub_nodes[j]]) continue;
+    const double moved =
+        (graph.poses[sub_nodes[j]].translation() - sub.poses[j].translation()).norm();
+    if (whole) snapshot.full_correction_m = std::max(snapshot.full_correction_m, moved);
+    graph.poses[sub_nodes[j]] = sub.poses[j];
+    ++solved;
+  }
+  for (std::size_t j = 0; j < sub_edges.size(); ++j) {
+    if (!sub.edges[j].loop) continue;
+    loop_states_[a.edge_keys[sub_edges[j]]] = {result.switches[j], result.weights[j],
+                                               result.inliers[j]};
+  }
+  return solved;
+}
+
+void TeamGraph::keep(Assembled&& a, BackendSnapshot& snapshot) {
+  PoseGraph& graph = a.graph;
+  graph_.poses.assign(graph.poses.begin(), graph.poses.begin() + a.own_count);
+  for (std::size_t k = a.own_count; k < graph.poses.size(); ++k) {
+    const auto& [peer, id] = a.nodes[k];
     joined_.at(peer).poses[id] = graph.poses[k];
   }
-  std::size_t inter = 0;
+  snapshot.loops = a.loops;
+  snapshot.loop_lines.clear();
+  std::map<Link, std::set<LoopKey>> kept;
+  last_weights_.assign(graph.edges.size(), 1.0);
   for (std::size_t k = 0; k < graph.edges.size(); ++k) {
     const PoseGraphEdge& e = graph.edges[k];
     if (!e.loop) continue;
-    const auto to = static_cast<std::size_t>(e.to);
-    const bool accepted = result.inliers[k];
-    if (to >= own_count) {
-      const auto& [link, key] = edge_loop[inter++];
-      if (accepted) kept_[link].insert(key);
+    const auto state = loop_states_.find(a.edge_keys[k]);  // a new one: until its first solve
+    const bool accepted = state == loop_states_.end() || state->second.inlier;
+    last_weights_[k] = state == loop_states_.end() ? 1.0 : state->second.weight;
+    const bool inter = a.edge_links[k].has_value();
+    if (inter) {
+      if (accepted) kept[*a.edge_links[k]].insert(a.edge_keys[k]);
       snapshot.loops.inter_rejected += !accepted;
     } else {
       snapshot.loops.intra_rejected += !accepted;
     }
     snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(e.from)].translation(),
-                                   graph.poses[to].translation(), accepted, to >= own_count});
+                                   graph.poses[static_cast<std::size_t>(e.to)].translation(),
+                                   accepted, inter});
   }
-  for (const auto& [from, to] : gated_out) {
+  for (const auto& [from, to] : a.gated_out) {
     ++snapshot.loops.inter_rejected;
     snapshot.loop_lines.push_back({graph.poses[static_cast<std::size_t>(from)].translation(),
                                    graph.poses[static_cast<std::size_t>(to)].translation(), false,
                                    true});
   }
-  last_weights_ = result.weights;
+  gate_.keep(std::move(kept));
   last_graph_ = std::move(graph);
-  last_own_count_ = own_count;
-  last_nodes_.clear();
-  for (const KeyframeId id : ids_) last_nodes_.emplace_back(robot_, id);
-  last_nodes_.insert(last_nodes_.end(), node_keyframe.begin(), node_keyframe.end());
+  last_own_count_ = a.own_count;
+  last_nodes_ = std::move(a.nodes);
 }
 
 PoseGraph TeamGraph::exportGraph(std::vector<double>* switch_values,
@@ -266,7 +376,7 @@ PoseGraph TeamGraph::exportGraph(std::vector<double>* switch_values,
   return out;
 }
 
-std::map<TeamGraph::Link, TeamGraph::Candidates> TeamGraph::candidates() const {
+std::map<Link, TeamGraph::Candidates> TeamGraph::candidates() const {
   // Inter-robot loops along their links: own keyframes at their optimised poses, teammates' at
   // their own; each with the drift of both keyframes since their robots' starts (a teammate's
   // from its keyframes' poses, with this robot's odometry model), so that a true loop seen
@@ -361,33 +471,9 @@ Pose3 TeamGraph::refinedTransform(const std::string& peer) const {
   return transform;
 }
 
-BackendSnapshot TeamGraph::optimize() {
-  BackendSnapshot snapshot;
-  const auto start = std::chrono::steady_clock::now();
-  alignment::AlignmentParams em;
-  em.min_inliers = params_.min_team_inliers;
-  em.min_inlier_margin = params_.team_inlier_margin;
-  gate_.clear();
-  std::vector<LoopLine> em_lines;  // of teammates out of the graph (only without team_graph)
-  const auto elapsed_s = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
-  // The EM of a link, or (once its transform was found, until its closures grew by
-  // kEmRerunGrowth since the last full EM) a re-check of that transform against them: O(n).
-  const auto align = [&](const Link& link, const std::vector<alignment::AlignmentCandidate>& list,
-                         bool recheck) {
-    alignment::AlignmentResult result;
-    const auto last = last_em_.find(link);
-    if (recheck && last != last_em_.end() && last->second.second.found &&
-        static_cast<double>(list.size()) < (1.0 + kEmRerunGrowth) * last->second.first) {
-      result = alignment::checkFrameTransform(list, em, last->second.second);
-    }
-    if (!result.found) {
-      result = alignment::estimateFrameTransform(list, em);
-      last_em_[link] = {list.size(), result};
-    }
-    return result;
-  };
+void TeamGraph::judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_lines,
+                           const std::function<double()>& elapsed_s) {
+  gate_.clearAdmitted();
   // Own links first: a teammate that joins now lets in its links with the others in the graph.
   const auto all_candidates = candidates();
   std::vector<const std::pair<const Link, Candidates>*> links;
@@ -407,24 +493,22 @@ BackendSnapshot TeamGraph::optimize() {
       continue;
     }
     // Its share of what the EM has left (its best supported start runs whatever is left).
-    em.max_time_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
-                    static_cast<double>(links_left--);
+    const double em_s = std::max(kEmTimeShare * params_.max_solve_time_s - elapsed_s(), 1e-6) /
+                        static_cast<double>(links_left--);
     if (!own) {  // two teammates' closures: the EM only gates them
-      const auto found = align(link, list, true);
-      for (std::size_t k = 0; found.found && k < list.size(); ++k) {
-        if (found.inliers[k]) gate_[link].insert(candidates.keys[k]);
-      }
+      gate_.admit(link, candidates.keys, gate_.judge(link, list, true, em_s));
       continue;
     }
     const std::string& peer = link.second;
     TeamEstimate estimate;
     estimate.peer = peer;
     estimate.candidates = static_cast<int>(list.size());
-    estimate.alignment = align(link, list, joined_.count(peer) > 0);
+    estimate.alignment = gate_.judge(link, list, joined_.count(peer) > 0, em_s);
     const alignment::AlignmentResult& found = estimate.alignment;
     auto joined = joined_.find(peer);
     if (joined == joined_.end() && found.found && params_.team_graph) {
       joined = joined_.emplace(peer, Joined{found.transform, {}}).first;
+      full_due_ = true;
       snapshot.notices.push_back(
           {"team graph", peer + " joins the graph: " + std::to_string(found.inlier_count) + " of " +
                              std::to_string(list.size()) + " closures agree"});
@@ -434,7 +518,7 @@ BackendSnapshot TeamGraph::optimize() {
       const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180 / M_PI;
       if (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg) {
         // The hypothesis with clearly more agreeing closures wins, by the EM's own margin.
-        const int accepted = static_cast<int>(kept_[link].size());
+        const int accepted = static_cast<int>(gate_.keptCount(link));
         char text[320];
         if (accepted + params_.team_inlier_margin >= found.inlier_count) {
           std::snprintf(text, sizeof text,
@@ -449,31 +533,62 @@ BackendSnapshot TeamGraph::optimize() {
                         peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count,
                         peer.c_str());
           joined->second = {found.transform, {}};
-          kept_.erase(link);
+          gate_.forgetKept(link);
+          full_due_ = true;
         }
         snapshot.notices.push_back({"team disagreement", text});
       }
     }
-    for (std::size_t k = 0; found.found && k < list.size(); ++k) {
+    if (joined != joined_.end()) gate_.admit(link, candidates.keys, found);
+    for (std::size_t k = 0; found.found && joined == joined_.end() && k < list.size(); ++k) {
       if (!found.inliers[k]) continue;
-      if (joined != joined_.end()) {
-        gate_[link].insert(candidates.keys[k]);
-      } else {
-        em_lines.push_back({list[k].pose_a.translation(),
-                            (found.transform * list[k].pose_b).translation(), true, true});
-      }
+      em_lines.push_back({list[k].pose_a.translation(),
+                          (found.transform * list[k].pose_b).translation(), true, true});
     }
     snapshot.team.push_back(estimate);
   }
-  // A teammate that joined or was placed again is optimised now.
-  solve(snapshot, std::max(params_.max_solve_time_s - elapsed_s(), 1e-3));
-  snapshot.loop_lines.insert(snapshot.loop_lines.end(), em_lines.begin(), em_lines.end());
-  for (auto& estimate : snapshot.team) {
-    if (!joined_.count(estimate.peer)) continue;
-    estimate.in_graph = true;
-    estimate.alignment.found = true;
-    estimate.alignment.transform = refinedTransform(estimate.peer);
+}
+
+BackendSnapshot TeamGraph::optimize() {
+  BackendSnapshot snapshot;
+  const auto start = std::chrono::steady_clock::now();
+  const auto elapsed_s = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  const bool period_full = windowed_since_full_ && last_full_ && !stamps_.empty() &&
+                           stamps_.back() - *last_full_ >= fromSeconds(params_.full_solve_period_s);
+  std::vector<LoopLine> em_lines;  // of teammates out of the graph (only without team_graph)
+  if (solve_due_) {
+    judgeLinks(snapshot, em_lines, elapsed_s);
+  } else {
+    snapshot.team = last_team_;
+    em_lines = last_em_lines_;
   }
+  placeJoinedKeyframes();
+  Assembled assembled = assemble();
+  if (solve_due_ || period_full) {
+    // A teammate that joined or was placed again is optimised now.
+    snapshot.solved_poses = solve(assembled, full_due_ || period_full,
+                                  std::max(params_.max_solve_time_s - elapsed_s(), 1e-3), snapshot);
+    if (snapshot.solved == BackendSnapshot::Solve::kFull) {
+      full_due_ = windowed_since_full_ = false;
+      if (!stamps_.empty()) last_full_ = stamps_.back();
+    } else {
+      windowed_since_full_ = true;
+    }
+  }
+  keep(std::move(assembled), snapshot);
+  snapshot.loop_lines.insert(snapshot.loop_lines.end(), em_lines.begin(), em_lines.end());
+  if (snapshot.solved != BackendSnapshot::Solve::kNone) {
+    for (auto& estimate : snapshot.team) {
+      if (!joined_.count(estimate.peer)) continue;
+      estimate.in_graph = true;
+      estimate.alignment.found = true;
+      estimate.alignment.transform = refinedTransform(estimate.peer);
+    }
+  }
+  last_team_ = snapshot.team;
+  last_em_lines_ = em_lines;
   for (const auto& [peer, joined] : joined_) {
     PeerKeyframes keyframes;
     keyframes.robot = peer;
@@ -488,9 +603,12 @@ BackendSnapshot TeamGraph::optimize() {
   snapshot.stamps = stamps_;
   snapshot.poses = graph_.poses;
   if (!odom_poses_.empty()) snapshot.latest_odom_pose = odom_poses_.back();
-  snapshot.solve_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  snapshot.cut_short = snapshot.solve_s >= params_.max_solve_time_s;
+  snapshot.solve_s = elapsed_s();
+  snapshot.cut_short = snapshot.solved != BackendSnapshot::Solve::kNone &&
+                       snapshot.solve_s >= params_.max_solve_time_s;
+  // Cut short: solved again at the next call (a full one stays due).
+  solve_due_ = snapshot.cut_short;
+  full_due_ = full_due_ || (snapshot.cut_short && snapshot.solved == BackendSnapshot::Solve::kFull);
   return snapshot;
 }
 

@@ -39,7 +39,7 @@ void TeamGraphWorker::add(const OwnKeyframe& keyframe) {
   if (!keyframe.odom_pose || !isValidPose(*keyframe.odom_pose)) {
     return refuse(Refusal::kKeyframe, what + "': its pose is not finite");
   }
-  queue(keyframe, false);
+  queue(keyframe);
 }
 
 void TeamGraphWorker::add(const PeerKeyframe& keyframe) {
@@ -50,7 +50,7 @@ void TeamGraphWorker::add(const PeerKeyframe& keyframe) {
   if (!keyframe.pose || !isValidPose(*keyframe.pose)) {
     return refuse(Refusal::kPeerKeyframe, what + "': its pose is not finite");
   }
-  queue(keyframe, false);
+  queue(keyframe);
 }
 bool TeamGraphWorker::addOwnLoop(const LoopClosureData& loop) {
   if (const auto problem = pose_graph::loopClosureProblem(loop)) {
@@ -59,10 +59,10 @@ bool TeamGraphWorker::addOwnLoop(const LoopClosureData& loop) {
   }
   switch (pose_graph::routeOwnLoop(graph_robot_, loop)) {
     case pose_graph::LoopRoute::kUseAndForward:
-      queue(loop, true);
+      queue(loop);
       return true;
     case pose_graph::LoopRoute::kUse:
-      queue(loop, true);
+      queue(loop);
       return false;
     default:
       refuse(Refusal::kLoopClosure, describe(loop) + ": it does not involve this robot");
@@ -76,11 +76,11 @@ void TeamGraphWorker::addTeammateLoop(const LoopClosureData& loop) {
   }
   switch (pose_graph::routeTeammateLoop(graph_robot_, loop)) {
     case pose_graph::LoopRoute::kUse:
-      queue(PeerKeyframe{loop.robot_from, loop.keyframe_from, *loop.odom_pose_from}, false);
+      queue(PeerKeyframe{loop.robot_from, loop.keyframe_from, *loop.odom_pose_from});
       if (loop.robot_to != graph_robot_ && loop.robot_to != loop.robot_from && loop.odom_pose_to) {
-        queue(PeerKeyframe{loop.robot_to, loop.keyframe_to, *loop.odom_pose_to}, false);
+        queue(PeerKeyframe{loop.robot_to, loop.keyframe_to, *loop.odom_pose_to});
       }
-      return queue(loop, true);
+      return queue(loop);
     case pose_graph::LoopRoute::kIgnore:
       return refuse(Refusal::kIgnoredLoopClosure, describe(loop) + ": this robot's own");
     default:
@@ -165,25 +165,17 @@ std::size_t TeamGraphWorker::keepJournal(TeamGraphJournal& journal) {
   return saved.size();
 }
 
-void TeamGraphWorker::queue(Input input, bool urgent) {
-  {
-    // One lock: the journal keeps the inputs in the order the graph takes them.
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (journal_) {
-      try {
-        journal_->append(input);
-      } catch (const std::exception& e) {
-        if (hooks_.unjournaled) hooks_.unjournaled(e.what());
-      }
+void TeamGraphWorker::queue(Input input) {
+  // One lock: the journal keeps the inputs in the order the graph takes them.
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (journal_) {
+    try {
+      journal_->append(input);
+    } catch (const std::exception& e) {
+      if (hooks_.unjournaled) hooks_.unjournaled(e.what());
     }
-    inputs_.push_back(std::move(input));
-    due_ = due_ || urgent;
   }
-  if (!thread_.joinable()) {
-    if (urgent) tick();
-  } else if (urgent) {
-    wake_.notify_one();
-  }
+  inputs_.push_back(std::move(input));
 }
 
 void TeamGraphWorker::run() {

@@ -100,21 +100,24 @@ struct Parameters {
     }
   }
 
-  void finish(ceres::Problem& problem, int dimension) {
-    if (dimension == 2) {
-      if (problem.HasParameterBlock(planar[0].data())) {
-        problem.SetParameterBlockConstant(planar[0].data());
-      }
-      return;
-    }
-    for (auto& q : rotation) {
-      if (problem.HasParameterBlock(q.data())) {
-        problem.SetManifold(q.data(), new ceres::EigenQuaternionManifold);
+  /// Quaternion manifolds, and the poses `fixed` says (the first when it says none) constant.
+  void finish(ceres::Problem& problem, int dimension, const std::vector<bool>& fixed = {}) {
+    if (dimension == 3) {
+      for (auto& q : rotation) {
+        if (problem.HasParameterBlock(q.data())) {
+          problem.SetManifold(q.data(), new ceres::EigenQuaternionManifold);
+        }
       }
     }
-    if (problem.HasParameterBlock(position[0].data())) {
-      problem.SetParameterBlockConstant(position[0].data());
-      problem.SetParameterBlockConstant(rotation[0].data());
+    const bool any = std::find(fixed.begin(), fixed.end(), true) != fixed.end();
+    const std::size_t n = dimension == 2 ? planar.size() : position.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (any ? !fixed[i] : i > 0) continue;
+      for (double* block : dimension == 2
+                               ? std::vector<double*>{planar[i].data()}
+                               : std::vector<double*>{position[i].data(), rotation[i].data()}) {
+        if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
+      }
     }
   }
 };
@@ -194,8 +197,6 @@ std::vector<Information> chainInflatedInformation(const PoseGraph& graph) {
   return result;
 }
 
-namespace {}  // namespace
-
 void DcsLoss::Evaluate(double s, double rho[3]) const {
   if (s <= phi_) {
     rho[0] = s;
@@ -225,20 +226,27 @@ std::vector<std::string> OptimizerParams::validate() const {
 PoseGraphOptimizer::PoseGraphOptimizer(const OptimizerParams& params)
     : params_(validated(params)) {}
 
-OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph,
-                                                std::optional<double> max_time_s) const {
+OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph, std::optional<double> max_time_s,
+                                                const SolveStart& start) const {
   const double budget_s = max_time_s.value_or(params_.max_solve_time_s);
   checkEdges(graph);
+  if (!start.fixed.empty() && start.fixed.size() != graph.poses.size()) {
+    throw std::invalid_argument("SolveStart: fixed needs one entry per pose");
+  }
+  if (!start.switches.empty() && start.switches.size() != graph.edges.size()) {
+    throw std::invalid_argument("SolveStart: switches needs one entry per edge");
+  }
+  const std::vector<bool>& fixed = start.fixed;
   OptimizationResult result;
   result.weights.assign(graph.edges.size(), 1.0);
   result.inliers.assign(graph.edges.size(), true);
+  const std::vector<double> initial_switches(graph.edges.size(), initialSwitch());
+  std::vector<double> switches = start.switches.empty() ? initial_switches : start.switches;
+  result.switches = switches;
   if (graph.poses.size() < 2 || graph.edges.empty()) {
     result.usable = true;
     return result;
   }
-  const bool linear = params_.switch_function == SwitchFunction::kLinear;
-  const std::vector<double> initial_switches(graph.edges.size(), linear ? 1.0 : 10.0);
-  std::vector<double> switches = initial_switches;
   const PoseGraph initial = graph;
   // max_solve_time_s bounds the whole optimisation: each solve gets what the ones before left,
   // and the optional ones (retry, refinement) are skipped when nothing is left.
@@ -246,7 +254,7 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph,
   const auto remaining = [&] {
     return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
   };
-  solve(graph, switches, result, budget_s);
+  solve(graph, fixed, switches, result, budget_s);
   classify(graph, switches, result);
 
   // Most loops off can mean false loops, or true ones seen after drift larger than their
@@ -267,13 +275,13 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph,
     }
     std::vector<double> retry_switches = initial_switches;
     OptimizationResult first;
-    solve(inflated, retry_switches, first, remaining());
+    solve(inflated, fixed, retry_switches, first, remaining());
     PoseGraph retry = initial;
     retry.poses = inflated.poses;
     OptimizationResult second;
     second.weights = result.weights;
     second.inliers = result.inliers;
-    solve(retry, retry_switches, second, std::max(remaining(), 1e-3));
+    solve(retry, fixed, retry_switches, second, std::max(remaining(), 1e-3));
     second.iterations += first.iterations + result.iterations;
     second.solve_s += first.solve_s + result.solve_s;
     if (second.usable && second.final_cost < result.final_cost) {
@@ -300,13 +308,14 @@ OptimizationResult PoseGraphOptimizer::optimize(PoseGraph& graph,
     }
     std::vector<double> unused(kept.edges.size(), 1.0);
     OptimizationResult refined;
-    solve(kept, unused, refined, remaining());
+    solve(kept, fixed, unused, refined, remaining());
     if (refined.usable) {
       graph.poses = kept.poses;
       result.iterations += refined.iterations;
       result.solve_s += refined.solve_s;
     }
   }
+  result.switches = switches;
   return result;
 }
 
@@ -339,10 +348,11 @@ double PoseGraphOptimizer::dcsPhi(int dimension) const {
   return params_.dcs_phi > 0.0 ? params_.dcs_phi : outlierChi2(dimension) / 3.0;
 }
 
-void PoseGraphOptimizer::solve(PoseGraph& graph, std::vector<double>& switches,
-                               OptimizationResult& result, double time_limit_s) const {
+void PoseGraphOptimizer::solve(PoseGraph& graph, const std::vector<bool>& fixed,
+                               std::vector<double>& switches, OptimizationResult& result,
+                               double time_limit_s) const {
   const bool linear = params_.switch_function == SwitchFunction::kLinear;
-  const double switch_start = linear ? 1.0 : 10.0;
+  const double switch_start = initialSwitch();
 
   Parameters parameters(graph);
   ceres::Problem problem;
@@ -388,7 +398,7 @@ void PoseGraphOptimizer::solve(PoseGraph& graph, std::vector<double>& switches,
       }
     }
   }
-  parameters.finish(problem, dim);
+  parameters.finish(problem, dim, fixed);
 
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;

@@ -29,8 +29,19 @@ struct BackendParams {
   /// (logged and resolved, see TeamGraph::optimize).
   double team_disagreement_m = 1.0;
   double team_disagreement_deg = 5.0;
-  /// The graph is re-optimised at this period (and when a loop closure arrives).
+  /// The back end looks at what arrived at this period: new keyframes are placed by odometry, and
+  /// the graph is solved when a loop closure arrived (or a keyframe one refers to, or a teammate
+  /// joined): at most one solve per period.
   double optimize_period_s = 1.0;
+  /// Between full solves, a solve holds every keyframe but the newest this many of each robot
+  /// in the graph constant (their switches too), warm-started from the last: a new loop's
+  /// correction goes into the recent drift. A loop with neither keyframe among them, a teammate
+  /// joining or placed again, and full_solve_period_s make the solve a full one. 0: every solve
+  /// is full.
+  int solve_window_keyframes = 100;
+  /// Mission time between full solves (every pose and switch free, switches from their prior),
+  /// the reference the windowed ones drift from; only when a windowed solve happened since.
+  double full_solve_period_s = 30.0;
   /// u_k, the marginal covariances of every own keyframe (a ceres::Covariance over the whole
   /// graph, whose cost grows with it), are computed at most this often in mission time; between,
   /// a newer keyframe's is the newest computed one's plus the odometry drift since.

@@ -20,6 +20,7 @@
 // their optimised ones, so every accepted closure refines it.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -28,6 +29,7 @@
 
 #include "ccir_mapping/core/alignment/frame_alignment.h"
 #include "ccir_mapping/core/backend/backend_params.h"
+#include "ccir_mapping/core/backend/link_gate.h"
 #include "ccir_mapping/core/common/notice.h"
 #include "ccir_mapping/core/common/tum_trajectory.h"
 #include "ccir_mapping/core/pose_graph/loop_closure.h"
@@ -82,6 +84,14 @@ struct BackendSnapshot {
   /// result disagreeing with the graph and how it was resolved).
   std::vector<Notice> notices;
   double solve_s = 0.0;
+  /// What this optimize() solved: nothing (new keyframes placed by odometry), the newest
+  /// keyframes of each robot (solve_window_keyframes), or the whole graph.
+  enum class Solve { kNone, kWindow, kFull } solved = Solve::kNone;
+  /// Variable poses of that solve.
+  int solved_poses = 0;
+  /// A full solve: how far it moved the farthest pose from where the windowed solves since the
+  /// last full one had left it (m), the price of the window.
+  double full_correction_m = 0.0;
   /// The optimisation used all of max_solve_time_s: its result may be short of the optimum.
   bool cut_short = false;
 
@@ -112,19 +122,19 @@ class TeamGraph {
   /// of a pair may find and share it, and it must count once.
   bool knows(const pose_graph::LoopClosureData& loop) const;
 
-  /// Optimises the graph and re-estimates every team transform, within max_solve_time_s (the
-  /// EM gets at most kEmTimeShare of it, split between the links; the solve the rest). A
-  /// teammate whose EM transform is found joins the graph (and is optimised at once). Once joined,
-  /// a later EM transform farther than team_disagreement_m / _deg from the graph's is a
-  /// disagreement, resolved by the EM's own rule: the graph's transform is kept while its switches
-  /// accept at least the EM's inlier count less team_inlier_margin closures with that teammate;
-  /// otherwise the teammate's part is placed again from the EM transform and re-optimised. Either
-  /// way a notice says which.
+  /// Places what arrived and, when a loop closure (or a keyframe one refers to) arrived since the
+  /// last call, re-estimates the team transforms and solves the graph, within max_solve_time_s
+  /// (the EM gets at most kEmTimeShare of it, split between the links; the solve the rest).
+  /// Without one, new keyframes are only placed by odometry. A solve is windowed
+  /// (solve_window_keyframes) or full (full_solve_period_s, see BackendParams). A teammate whose
+  /// EM transform is found joins the graph (and is optimised at once). Once joined, a later EM
+  /// transform farther than team_disagreement_m / _deg from the graph's is a disagreement,
+  /// resolved by the EM's own rule: the graph's transform is kept while its switches accept at
+  /// least the EM's inlier count less team_inlier_margin closures with that teammate; otherwise
+  /// the teammate's part is placed again from the EM transform and re-optimised. Either way a
+  /// notice says which.
   BackendSnapshot optimize();
   static constexpr double kEmTimeShare = 0.4;
-  /// A joined teammate's EM runs again in full once its closures grew by this share; between,
-  /// the last transform is re-checked against the new ones.
-  static constexpr double kEmRerunGrowth = 0.1;
 
   /// The whole graph of the last optimisation for inspection (writeG2o): own and teammates'
   /// keyframes named by VertexKey (the robots lettered 'a', 'b', ... in name order, listed in
@@ -170,21 +180,63 @@ class TeamGraph {
   };
   std::map<std::string, Joined> joined_;
   std::vector<pose_graph::LoopClosureData> loops_;  // all of them; resolved at each optimisation
-  /// The two keyframes of each of loops_, in a fixed order.
-  using KeyframeOf = std::pair<std::string, KeyframeId>;
-  using LoopKey = std::pair<KeyframeOf, KeyframeOf>;
   static LoopKey keyOf(const pose_graph::LoopClosureData& loop);
   std::set<LoopKey> loop_keys_;
+  std::set<KeyframeOf> loop_ends_;  // the keyframes of loops_
+  /// What each loop in the graph ended its last solve with.
+  struct LoopState {
+    double switch_value = 1.0;
+    double weight = 1.0;
+    bool inlier = true;
+  };
+  std::map<LoopKey, LoopState> loop_states_;
+  /// A loop closure, or a keyframe one refers to, arrived since the last solve (or that solve
+  /// was cut short); full_due_: the next solve must be a full one.
+  bool solve_due_ = false;
+  bool full_due_ = true;
+  bool windowed_since_full_ = false;
+  std::optional<Stamp> last_full_;
+  /// The whole graph at the current estimate: own keyframes first, then each joined teammate's
+  /// in name and id order; the loops gated in, and those gated out.
+  struct Assembled {
+    pose_graph::PoseGraph graph;
+    std::size_t own_count = 0;
+    std::vector<std::pair<std::size_t, std::size_t>> chains;  // each robot's nodes [begin, end)
+    std::vector<KeyframeOf> nodes;                            // the keyframe of each node
+    std::vector<LoopKey> edge_keys;                           // of each edge (loops only)
+    std::vector<std::optional<Link>> edge_links;              // of each inter-robot loop
+    std::vector<std::pair<int, int>> gated_out;
+    BackendSnapshot::LoopCounts loops;  // intra and inter; rejected ones counted by report()
+  };
+  Assembled assemble() const;
+  /// Solves `a` (its poses updated) windowed or whole, keeps the loops' states; returns the
+  /// variable poses.
+  int solve(Assembled& a, bool full, double max_time_s, BackendSnapshot& snapshot);
+  /// Nodes a windowed solve of `a` frees: the newest solve_window_keyframes of each chain (never
+  /// the first node, the gauge); empty when a new loop has neither keyframe among them.
+  std::optional<std::vector<bool>> window(const Assembled& a) const;
+  /// Each link's EM (or re-check) within kEmTimeShare of max_solve_time_s: the gate admits
+  /// its inliers, a teammate whose transform is found joins, a disagreement is resolved (see
+  /// optimize()); the team estimates go into the snapshot, the EM's closures of teammates kept
+  /// out of the graph into em_lines.
+  void judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_lines,
+                  const std::function<double()>& elapsed_s);
+  /// New keyframes of joined teammates placed: each continues from the previous one's pose by
+  /// its odometry step (the first one by the transform).
+  void placeJoinedKeyframes();
+  /// The optimised poses of `a` kept, its loops reported in the snapshot, the graph kept for
+  /// inspection.
+  void keep(Assembled&& a, BackendSnapshot& snapshot);
+  /// What the last EM pass said (reused while no loop closure arrives).
+  std::vector<TeamEstimate> last_team_;
+  std::vector<LoopLine> last_em_lines_;
   std::vector<double> last_weights_;
-  pose_graph::PoseGraph last_graph_;  // the whole graph of the last optimisation
-  std::size_t last_own_count_ = 0;    // own keyframes (its first nodes) in last_graph_
-  std::vector<std::pair<std::string, KeyframeId>> last_nodes_;  // the keyframe of each node
+  pose_graph::PoseGraph last_graph_;    // the whole graph of the last optimisation
+  std::size_t last_own_count_ = 0;      // own keyframes (its first nodes) in last_graph_
+  std::vector<KeyframeOf> last_nodes_;  // the keyframe of each node
 
   /// Index of own keyframe `id` in the graph, or -1.
   int ownIndex(KeyframeId id) const;
-  /// Two robots whose closures one EM judges: (this robot, a teammate), or two teammates in name
-  /// order (closures one of them found and shared).
-  using Link = std::pair<std::string, std::string>;
   /// An inter-robot closure along its link: keyframe `first` of link.first, keyframe `second` of
   /// link.second, and the second's pose in the first's frame.
   struct Oriented {
@@ -195,11 +247,6 @@ class TeamGraph {
   };
   /// nullopt for a closure within one robot.
   std::optional<Oriented> oriented(const pose_graph::LoopClosureData& loop) const;
-  /// Builds and solves the whole graph (own keyframes, intra-robot loops, then each joined
-  /// teammate's keyframes, odometry and the inter-robot loops in gate_ or kept_ whose keyframes
-  /// are both in it), keeps its poses
-  /// and reports its loops in the snapshot (inter-robot ones out of the graph as rejected).
-  void solve(BackendSnapshot& snapshot, double max_time_s);
   /// The EM's candidates along one link, and the closure each one is.
   struct Candidates {
     std::vector<alignment::AlignmentCandidate> list;
@@ -212,12 +259,7 @@ class TeamGraph {
   std::map<KeyframeId, pose_graph::Covariance6> peerDrift(const std::string& peer) const;
   /// The teammate's transform fitted (x y z yaw) from its own poses to its optimised ones.
   Pose3 refinedTransform(const std::string& peer) const;
-  /// Inter-robot closures the EM counts as inliers (this optimisation), and those the graph's
-  /// switches kept (the last solve), per link.
-  std::map<Link, std::set<LoopKey>> gate_;
-  std::map<Link, std::set<LoopKey>> kept_;
-  /// Per link: its closures at the last full EM, and that EM's result.
-  std::map<Link, std::pair<std::size_t, alignment::AlignmentResult>> last_em_;
+  LinkGate gate_;
 };
 
 }  // namespace ccir_mapping::core::backend

@@ -1,9 +1,9 @@
 // A TeamGraph on a thread of its own: callers hand over keyframes and loop closures and return
-// at once; the worker applies them and re-optimises at each tick() and as soon as a loop
-// closure arrives, so a solve never holds the caller's thread (a nodelet manager's). On the
-// caller's thread instead (Threading::kCaller) the same happens before each call returns, so a
-// program in simulated time (core/runner) gets the same optimisations in the same order on
-// every run.
+// at once; the worker applies them at each tick() and optimises (TeamGraph::optimize decides
+// what to solve), so a solve never holds the caller's thread (a nodelet manager's) and happens
+// at most once a tick. On the caller's thread instead (Threading::kCaller) tick() returns with
+// the optimisation done, so a program in simulated time (core/runner) gets the same
+// optimisations in the same order on every run.
 #pragma once
 
 #include <condition_variable>
@@ -83,8 +83,8 @@ class TeamGraphWorker {
 
   void add(const OwnKeyframe& keyframe);
   void add(const PeerKeyframe& keyframe);
-  /// A closure this robot's Matcher found, optimised as soon as the worker is free; true when
-  /// it goes to the teammates too (pose_graph::routeOwnLoop).
+  /// A closure this robot's Matcher found, solved at the next tick; true when it goes to the
+  /// teammates too (pose_graph::routeOwnLoop).
   bool addOwnLoop(const pose_graph::LoopClosureData& loop);
   /// A closure a teammate found, with its keyframe and that keyframe's odometry pose
   /// (pose_graph::routeTeammateLoop).
@@ -102,7 +102,7 @@ class TeamGraphWorker {
   bool inspect(const std::function<void(const TeamGraph&)>& task);
 
  private:
-  void queue(Input input, bool urgent);
+  void queue(Input input);
   void run();
   /// Applies `inputs`, optimises and reports (hooks.run, hooks.optimized).
   void optimize(const std::deque<Input>& inputs);

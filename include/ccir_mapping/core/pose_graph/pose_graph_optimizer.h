@@ -52,6 +52,9 @@ struct OptimizationResult {
   /// scale, or 1) and whether the loop is kept as an inlier. Odometry edges: 1 and true.
   std::vector<double> weights;
   std::vector<bool> inliers;
+  /// Per edge: the switch variable it ended with (kSwitchable's loops; 1 for the others), to
+  /// warm-start a later solve (SolveStart::switches).
+  std::vector<double> switches;
   std::string summary;
 };
 
@@ -61,15 +64,26 @@ struct OptimizationResult {
 /// ICRA 2015, within one robot). Loops without an odometry chain keep their information.
 std::vector<Information> chainInflatedInformation(const PoseGraph& graph);
 
+/// Where one optimize() starts beyond the graph's poses: a solve over part of a larger graph
+/// (core/backend/team_graph.h) holds its boundary constant and resumes its switches.
+struct SolveStart {
+  /// Per pose: held constant. Empty (or none set): the first pose only, the gauge.
+  std::vector<bool> fixed;
+  /// Per edge: the switch variable to start from. Empty: the prior's value for every loop (the
+  /// retry of uncertainty_aware_start always starts there).
+  std::vector<double> switches;
+};
+
 class PoseGraphOptimizer {
  public:
   /// Throws std::invalid_argument when params.validate() reports errors.
   explicit PoseGraphOptimizer(const OptimizerParams& params);
 
   /// Optimises graph.poses in place from their current values, within `max_time_s` of wall
-  /// time (default: params.max_solve_time_s).
-  OptimizationResult optimize(PoseGraph& graph,
-                              std::optional<double> max_time_s = std::nullopt) const;
+  /// time (default: params.max_solve_time_s). Throws std::invalid_argument when `start`'s
+  /// vectors are neither empty nor one per pose / edge.
+  OptimizationResult optimize(PoseGraph& graph, std::optional<double> max_time_s = std::nullopt,
+                              const SolveStart& start = {}) const;
 
   /// Marginal covariances of poses `ids` in their tangent space (as the residuals: [x y theta]
   /// or [x y z, rotation vector], rotation in the pose's frame) at the current estimate, first
@@ -87,6 +101,10 @@ class PoseGraphOptimizer {
   static double outlierChi2(int dimension) { return dimension == 2 ? 11.345 : 16.812; }
 
   const OptimizerParams& params() const { return params_; }
+  /// The value a loop's switch starts from without a SolveStart: its prior's.
+  double initialSwitch() const {
+    return params_.switch_function == SwitchFunction::kLinear ? 1.0 : 10.0;
+  }
 
  private:
   double switchPriorSigma(int dimension) const;
@@ -96,8 +114,8 @@ class PoseGraphOptimizer {
                 OptimizationResult& result) const;
   /// One Ceres solve from the graph's poses and `switches` (updated in place), stopped after
   /// `time_limit_s`.
-  void solve(PoseGraph& graph, std::vector<double>& switches, OptimizationResult& result,
-             double time_limit_s) const;
+  void solve(PoseGraph& graph, const std::vector<bool>& fixed, std::vector<double>& switches,
+             OptimizationResult& result, double time_limit_s) const;
 
   OptimizerParams params_;
 };
