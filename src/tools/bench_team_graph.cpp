@@ -83,6 +83,14 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
       "max-solve-time-s",
       po::value<double>(&o->backend.max_solve_time_s)->default_value(o->backend.max_solve_time_s),
       "the Backend's max_solve_time_s")(
+      "solve-window-keyframes",
+      po::value<int>(&o->backend.solve_window_keyframes)
+          ->default_value(o->backend.solve_window_keyframes),
+      "the Backend's solve_window_keyframes (0: every solve full)")(
+      "full-solve-period-s",
+      po::value<double>(&o->backend.full_solve_period_s)
+          ->default_value(o->backend.full_solve_period_s),
+      "the Backend's full_solve_period_s")(
       "g2o-dir", po::value<std::string>(&o->g2o_dir),
       "write each robot's final team graph there as team_graph_<robot>.g2o (robot-keyed ids, "
       "switch values)");
@@ -95,7 +103,8 @@ std::optional<int> parse(int argc, char** argv, Options* o) {
     return tools::usageError(
         "bench_team_graph",
         "need --false-fraction in [0, 1), --false-mode grouped | random, "
-        "--optimize-every-s > 0, --odom-noise-scale >= 0, a valid --max-solve-time-s");
+        "--optimize-every-s > 0, --odom-noise-scale >= 0, a valid --max-solve-time-s, "
+        "--solve-window-keyframes and --full-solve-period-s");
   }
   return std::nullopt;
 }
@@ -392,9 +401,11 @@ void report(const Options& o, const Results& r) {
       "{\n  \"benchmark\": \"team_graph\",\n  \"seed\": %d,\n  \"robots\": %d,\n"
       "  \"duration_s\": %.0f,\n  \"keyframes\": %zu,\n  \"closures\": %zu,\n"
       "  \"false_closures\": %zu,\n  \"false_mode\": \"%s\",\n"
-      "  \"max_solve_time_s\": %.3f,\n  \"odom_noise_scale\": %.2f,\n",
+      "  \"max_solve_time_s\": %.3f,\n  \"odom_noise_scale\": %.2f,\n"
+      "  \"solve_window_keyframes\": %d,\n  \"full_solve_period_s\": %.1f,\n",
       o.seed, o.robots, o.duration_s, r.keyframes, r.closures, r.false_closures,
-      o.false_mode.c_str(), o.backend.max_solve_time_s, o.odom_noise_scale);
+      o.false_mode.c_str(), o.backend.max_solve_time_s, o.odom_noise_scale,
+      o.backend.solve_window_keyframes, o.backend.full_solve_period_s);
   double worst_ratio = 0.0;
   std::printf("  \"per_robot\": [\n");
   for (std::size_t i = 0; i < r.robots.size(); ++i) {

@@ -152,7 +152,6 @@ TeamGraph::Assembled TeamGraph::assemble() const {
   Assembled a;
   a.graph = graph_;  // own keyframes and odometry
   a.own_count = a.graph.poses.size();
-  a.chains.emplace_back(0, a.own_count);
   for (const KeyframeId id : ids_) a.nodes.emplace_back(robot_, id);
   a.edge_keys.resize(a.graph.edges.size());
   a.edge_links.resize(a.graph.edges.size());
@@ -179,7 +178,6 @@ TeamGraph::Assembled TeamGraph::assemble() const {
   // Each joined teammate's known keyframes in id order, chained by its odometry steps.
   std::map<KeyframeOf, int> peer_node;
   for (const auto& [peer, joined] : joined_) {
-    const std::size_t begin = a.graph.poses.size();
     const Pose3* previous = nullptr;
     for (const auto& [id, pose] : peers_.at(peer)) {
       const int node = static_cast<int>(a.graph.poses.size());
@@ -198,7 +196,6 @@ TeamGraph::Assembled TeamGraph::assemble() const {
       peer_node[{peer, id}] = node;
       a.nodes.emplace_back(peer, id);
     }
-    a.chains.emplace_back(begin, a.graph.poses.size());
   }
   // Inter-robot loops whose keyframes are both in the graph (own and joined teammates'): in it
   // when gated in, else reported rejected.
@@ -225,14 +222,13 @@ TeamGraph::Assembled TeamGraph::assemble() const {
 }
 
 std::optional<std::vector<bool>> TeamGraph::window(const Assembled& a) const {
-  const auto n = a.graph.poses.size();
+  // Own keyframes: the newest, and all placed by odometry since the last solve.
   const auto size = static_cast<std::size_t>(params_.solve_window_keyframes);
-  std::vector<bool> variable(n, false);
-  for (const auto& [begin, end] : a.chains) {
-    for (std::size_t i = std::max(begin, end - std::min(end - begin, size)); i < end; ++i) {
-      variable[i] = i > 0;
-    }
-  }
+  const std::size_t first =
+      std::min(a.own_count - std::min(a.own_count, size), std::min(solved_own_, a.own_count));
+  std::vector<bool> variable(a.graph.poses.size(), true);
+  for (std::size_t i = 0; i < first; ++i) variable[i] = false;
+  variable[0] = false;  // the gauge
   for (std::size_t k = 0; k < a.graph.edges.size(); ++k) {
     const PoseGraphEdge& e = a.graph.edges[k];
     if (e.loop && !loop_states_.count(a.edge_keys[k]) &&
@@ -287,6 +283,7 @@ int TeamGraph::solve(Assembled& a, bool full, double max_time_s, BackendSnapshot
                                  : optimizer_.initialSwitch());
   }
   if (sub.poses.size() < 2) return 0;
+  solved_own_ = a.own_count;
   const OptimizationResult result = optimizer_.optimize(sub, max_time_s, start);
   int solved = 0;
   for (std::size_t j = 0; j < sub_nodes.size(); ++j) {

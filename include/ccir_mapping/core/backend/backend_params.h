@@ -33,11 +33,11 @@ struct BackendParams {
   /// the graph is solved when a loop closure arrived (or a keyframe one refers to, or a teammate
   /// joined): at most one solve per period.
   double optimize_period_s = 1.0;
-  /// Between full solves, a solve holds every keyframe but the newest this many of each robot
-  /// in the graph constant (their switches too), warm-started from the last: a new loop's
-  /// correction goes into the recent drift. A loop with neither keyframe among them, a teammate
-  /// joining or placed again, and full_solve_period_s make the solve a full one. 0: every solve
-  /// is full.
+  /// Between full solves, a solve holds this robot's keyframes constant but the newest this
+  /// many (and those placed since the last solve); teammates' stay free, and every loop's switch
+  /// resumes from the last solve: a new loop's correction goes into the recent drift. A loop
+  /// with neither keyframe free, a teammate joining or placed again, and full_solve_period_s
+  /// make the solve a full one. 0: every solve is full.
   int solve_window_keyframes = 100;
   /// Mission time between full solves (every pose and switch free, switches from their prior),
   /// the reference the windowed ones drift from; only when a windowed solve happened since.

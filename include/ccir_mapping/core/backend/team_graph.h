@@ -196,15 +196,15 @@ class TeamGraph {
   bool full_due_ = true;
   bool windowed_since_full_ = false;
   std::optional<Stamp> last_full_;
+  std::size_t solved_own_ = 0;  // own keyframes the last solve had (newer: placed by odometry)
   /// The whole graph at the current estimate: own keyframes first, then each joined teammate's
   /// in name and id order; the loops gated in, and those gated out.
   struct Assembled {
     pose_graph::PoseGraph graph;
     std::size_t own_count = 0;
-    std::vector<std::pair<std::size_t, std::size_t>> chains;  // each robot's nodes [begin, end)
-    std::vector<KeyframeOf> nodes;                            // the keyframe of each node
-    std::vector<LoopKey> edge_keys;                           // of each edge (loops only)
-    std::vector<std::optional<Link>> edge_links;              // of each inter-robot loop
+    std::vector<KeyframeOf> nodes;                // the keyframe of each node
+    std::vector<LoopKey> edge_keys;               // of each edge (loops only)
+    std::vector<std::optional<Link>> edge_links;  // of each inter-robot loop
     std::vector<std::pair<int, int>> gated_out;
     BackendSnapshot::LoopCounts loops;  // intra and inter; rejected ones counted by report()
   };
@@ -212,8 +212,9 @@ class TeamGraph {
   /// Solves `a` (its poses updated) windowed or whole, keeps the loops' states; returns the
   /// variable poses.
   int solve(Assembled& a, bool full, double max_time_s, BackendSnapshot& snapshot);
-  /// Nodes a windowed solve of `a` frees: the newest solve_window_keyframes of each chain (never
-  /// the first node, the gauge); empty when a new loop has neither keyframe among them.
+  /// Nodes a windowed solve of `a` frees: the newest solve_window_keyframes own ones and those
+  /// placed since the last solve, and every teammate's (never the first node, the gauge);
+  /// nullopt when a new loop has neither keyframe among them.
   std::optional<std::vector<bool>> window(const Assembled& a) const;
   /// Each link's EM (or re-check) within kEmTimeShare of max_solve_time_s: the gate admits
   /// its inliers, a teammate whose transform is found joins, a disagreement is resolved (see
