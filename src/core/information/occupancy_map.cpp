@@ -109,8 +109,9 @@ void OccupancyMap::assign(
   for (const auto& [key, log_odds] : voxels) {
     bool in_box = true;
     for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
+    octomap::OcTreeNode* leaf = finestLeaf(key);
     if (in_box) {
-      const octomap::OcTreeNode* before = tree_.search(key);
+      const octomap::OcTreeNode* before = leaf ? leaf : tree_.search(key);  // or a pruned leaf
       box_entropy_bits_ -= before ? entropy_(before->getLogOdds()) : 1.0;
       box_known_voxels_ -= before ? 1.0 : 0.0;
     }
@@ -121,7 +122,7 @@ void OccupancyMap::assign(
     }
     const float value =
         std::clamp(*log_odds, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
-    if (octomap::OcTreeNode* leaf = finestLeaf(key)) {
+    if (leaf) {
       leaf->setLogOdds(value);
     } else {
       tree_.setNodeValue(key, value, /*lazy_eval=*/true);

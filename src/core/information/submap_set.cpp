@@ -19,15 +19,30 @@ void SubmapSet::addSettled(const octomap::OcTree& map) {
     read.add(it.getKey(), it->getLogOdds());
   }
   read.close();
-  submap(kSettled).absorb(read, grid_);
+  addRun(std::move(read));
 }
 
 void SubmapSet::settle(SubmapId id) {
   const auto it = submaps_.find(id);
-  if (it == submaps_.end() || id == kSettled) return;
-  it->second.fold();
-  submap(kSettled).absorb(it->second, grid_);
+  if (it == submaps_.end()) return;
+  it->second.close();
+  addRun(std::move(it->second));
   submaps_.erase(it);
+}
+
+void SubmapSet::addRun(Submap run) {
+  if (run.moved()) {  // its voxels where they are now: runs merge key by key
+    Submap placed(Submap::Model::of(grid_));
+    placed.absorb(run, grid_);
+    placed.close();
+    run = std::move(placed);
+  }
+  settled_.push_back(std::move(run));
+  while (settled_.size() > 1 &&
+         settled_.back().voxels() * kRunRatio >= settled_[settled_.size() - 2].voxels()) {
+    settled_[settled_.size() - 2].absorb(settled_.back(), grid_);
+    settled_.pop_back();
+  }
 }
 
 void SubmapSet::close(SubmapId id) {
@@ -63,13 +78,14 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     }
   });
   FlatKeySet::sortCodes(keys);
-  // What every submap that reaches them says of them: the key, and the log-odds above it.
+  // What every submap and settled run that reaches them says of them: the key, and the
+  // log-odds above it.
   std::vector<std::uint64_t> said;
-  for (auto& [id, s] : submaps_) {
+  const auto gather = [&](Submap& s) {
     const auto [min, max] = s.bounds(grid_);
     bool overlaps = true;
     for (int a = 0; a < 3; ++a) overlaps &= min[a] <= hi[a] && lo[a] <= max[a];
-    if (!overlaps) continue;
+    if (!overlaps) return;
     s.fold();
     s.forEachWithin(lo, hi, grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
       if (affected.contains(key)) {
@@ -77,7 +93,9 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
                                                    << 48);
       }
     });
-  }
+  };
+  for (auto& [id, s] : submaps_) gather(s);
+  for (Submap& run : settled_) gather(run);
   FlatKeySet::sortCodes(said);
   const Submap::Model model = Submap::Model::of(grid_);
   constexpr std::uint64_t kKey = (std::uint64_t{1} << 48) - 1;
@@ -99,12 +117,14 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
 std::size_t SubmapSet::voxels() const {
   std::size_t n = 0;
   for (const auto& [id, s] : submaps_) n += s.voxels();
+  for (const Submap& run : settled_) n += run.voxels();
   return n;
 }
 
 std::size_t SubmapSet::bytes() const {
   std::size_t n = 0;
   for (const auto& [id, s] : submaps_) n += s.bytes();
+  for (const Submap& run : settled_) n += run.bytes();
   return n;
 }
 

@@ -219,6 +219,43 @@ TEST(SubmapSet, RecomputesTheMapOnlyWhereMovedSubmapsWereAndAre) {
   EXPECT_GT(withinOneVoxel(moved_only, map), 0.999);
 }
 
+TEST(SubmapSet, TheSettledPartStaysAFewRunsAndSumsTheEvidenceOfEverySubmapSettled) {
+  OccupancyMap map(params());
+  SubmapSet submaps(map.tree());
+  const auto key = [](int x) { return octomap::OcTreeKey(32768 + x, 32768, 32768); };
+  // 60 submaps: each a miss on the same 5 voxels and a hit of its own, then settled; half of
+  // them moved by a voxel along y first (settled where they are then).
+  constexpr int kSettled = 60;
+  for (int i = 0; i < kSettled; ++i) {
+    const auto id = static_cast<SubmapId>(i + 1);
+    ScanUpdate update;
+    for (int x = 0; x < 5; ++x) update.free.push_back(key(x));
+    update.occupied.push_back(key(100 + i));
+    submaps.add(id, update);
+    submaps.close(id);
+    if (i % 2) submaps.apply({{id, Pose3(Eigen::Translation3d(0, 0.1, 0)), std::nullopt}});
+    submaps.settle(id);
+    ASSERT_LE(submaps.settledRuns(), 3U) << "after " << i + 1;
+  }
+  EXPECT_EQ(submaps.size(), 0U);
+  // A live submap over all of those voxels: the map there is the sum of everyone's evidence.
+  ScanUpdate over;
+  for (int x = 0; x < 100 + kSettled; ++x) over.occupied.push_back(key(x));
+  submaps.add(999, over);
+  submaps.close(999);
+  std::map<int, float> said;
+  for (const auto& [k, log_odds] : submaps.apply({{999, Pose3::Identity(), std::nullopt}})) {
+    if (k[1] == 32768 && log_odds) said[k[0] - 32768] = *log_odds;
+  }
+  const auto model = Submap::Model::of(map.tree());
+  const float all_misses = std::max(model.min, 30 * model.miss) + model.hit;  // the unmoved half
+  EXPECT_NEAR(said.at(0), std::max(model.min, all_misses), 1e-3);
+  for (int i = 0; i < kSettled; i += 2) {
+    EXPECT_NEAR(said.at(100 + i), std::min(model.max, 2 * model.hit), 1e-3) << i;
+  }
+  EXPECT_NEAR(said.at(101), model.hit, 1e-3) << "moved along y: only the live submap's hit here";
+}
+
 TEST(MapperStage, MovingSubmapsEqualsInsertingTheirScansAtTheNewPosesWithinOneVoxel) {
   MapperParams p = params();
   p.submap_scans = 3;

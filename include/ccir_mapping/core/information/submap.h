@@ -47,6 +47,7 @@ class Submap {
   /// The transform from the map frame the evidence was integrated in to where it belongs now.
   const Pose3& delta() const { return delta_; }
   void setDelta(const Pose3& delta);
+  bool moved() const { return moved_; }
 
   /// Calls f(key, log_odds_mils) for each voxel of the folded evidence at its place now (the
   /// voxel holding its centre moved by delta(); one that leaves OctoMap's reach is skipped).

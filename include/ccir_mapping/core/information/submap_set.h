@@ -39,24 +39,33 @@ class SubmapSet {
   /// A map read from a file: the start of the settled part.
   void addSettled(const octomap::OcTree& map);
   /// Submap `id` joins the settled part of the map where it is now: it never moves again, and
-  /// its evidence counts once per voxel there (8 bytes a voxel of the settled part).
+  /// its evidence counts once per voxel there (8 bytes a voxel of the settled part). The settled
+  /// part is a few sorted runs, each at least kRunRatio times smaller than the one before: a
+  /// run is merged into the one before once it is no longer, so a settle costs amortised
+  /// O(log) per voxel instead of a pass over the whole settled part, for at most 1 / (kRunRatio
+  /// - 1) more bytes (a voxel in several runs).
   void settle(SubmapId id);
+  static constexpr std::size_t kRunRatio = 4;
   void close(SubmapId id);
   /// Applies the changes to the submaps and returns the voxels of the map that change with them
   /// (for OccupancyMap::assign).
   Voxels apply(const std::vector<Change>& changes);
 
   /// Submaps not settled.
-  std::size_t size() const { return submaps_.size() - submaps_.count(kSettled); }
+  std::size_t size() const { return submaps_.size(); }
+  /// Runs of the settled part.
+  std::size_t settledRuns() const { return settled_.size(); }
   std::size_t voxels() const;
   std::size_t bytes() const;
 
  private:
-  static constexpr SubmapId kSettled = 0;
   Submap& submap(SubmapId id);
+  /// A run joins the settled part; smaller runs are merged into larger ones (kRunRatio).
+  void addRun(Submap run);
 
   const octomap::OcTree& grid_;
   std::map<SubmapId, Submap> submaps_;
+  std::vector<Submap> settled_;  // the settled part's runs, largest first
 };
 
 }  // namespace ccir_mapping::core::information
