@@ -87,11 +87,12 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     for (int a = 0; a < 3; ++a) overlaps &= min[a] <= hi[a] && lo[a] <= max[a];
     if (!overlaps) return;
     s.fold();
-    s.forEachWithin(lo, hi, grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
-      if (affected.contains(key)) {
-        said.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)}
-                                                   << 48);
-      }
+    const auto say = [&](const octomap::OcTreeKey& key, std::int16_t mils) {
+      said.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
+    };
+    if (!s.moved()) return s.forEachAmong(keys, say);
+    s.forEach(grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
+      if (affected.contains(key)) say(key, mils);
     });
   };
   for (auto& [id, s] : submaps_) gather(s);
