@@ -74,7 +74,8 @@ std::optional<std::vector<double>> BackendStage::uncertainty(const BackendSnapsh
     return computed;
   }
   // Keyframes since: the newest marginal plus each odometry step's position variance, as the
-  // odometry edges weigh it (isotropic: the geometric mean of its eigenvalues is its diagonal).
+  // odometry edges weigh it (isotropic: the geometric mean of its eigenvalues is its diagonal),
+  // as TeamGraph::positionVariances carries it between its marginals.
   std::vector<double> variances(snapshot.ids.size(), 0.0);
   double carried = 0.0;
   for (std::size_t i = 0; i < snapshot.ids.size(); ++i) {
@@ -82,10 +83,8 @@ std::optional<std::vector<double>> BackendStage::uncertainty(const BackendSnapsh
     if (known != variances_.end()) {
       carried = variances[i] = known->second;
     } else if (i > 0) {
-      const double step_m =
-          (snapshot.poses[i].translation() - snapshot.poses[i - 1].translation()).norm();
-      const double sigma_m = params_.odometry.sigma_m_per_m * step_m;
-      carried = variances[i] = carried + sigma_m * sigma_m;
+      const Pose3 step = snapshot.poses[i - 1].inverse() * snapshot.poses[i];
+      carried = variances[i] = carried + pose_graph::stepCovariance(step, params_.odometry)(0, 0);
     }
   }
   return variances;

@@ -653,29 +653,49 @@ std::vector<std::string> TeamGraph::save(const std::string& dir) const {
 
 std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
     const std::vector<KeyframeId>& ids) const {
-  std::vector<int> indices;
+  // The last optimised graph, loops weighted as the robust kernel left them (a loop the
+  // switches accepted shrinks the uncertainty of the keyframes it closes), its chains thinned
+  // to these keyframes and the loops' ends.
+  const bool optimised = last_own_count_ == graph_.poses.size();
+  const PoseGraph& whole = optimised ? last_graph_ : graph_;
+  std::vector<double> weights = optimised ? last_weights_ : std::vector<double>{};
+  std::vector<bool> keep(whole.poses.size(), false);
   for (const KeyframeId id : ids) {
     const auto it = index_.find(id);
     if (it == index_.end()) return std::nullopt;
-    indices.push_back(it->second);
+    keep[static_cast<std::size_t>(it->second)] = true;
   }
-  // The last optimised graph, loops weighted as the robust kernel left them: a loop the
-  // switches accepted shrinks the uncertainty of the keyframes it closes.
-  if (last_own_count_ != graph_.poses.size()) {
-    return optimizer_.marginalCovariances(graph_, indices);
-  }
-  return optimizer_.marginalCovariances(last_graph_, indices, last_weights_);
+  std::vector<int> node_of;
+  const PoseGraph thin = pose_graph::thinChains(whole, keep, &node_of, &weights);
+  std::vector<int> indices;
+  for (const KeyframeId id : ids)
+    indices.push_back(node_of[static_cast<std::size_t>(index_.at(id))]);
+  return optimizer_.marginalCovariances(thin, indices, weights);
 }
 
 std::optional<std::vector<double>> TeamGraph::positionVariances(
     const std::vector<KeyframeId>& ids) const {
-  const auto all = covariances(ids);
+  // Marginals at every kVarianceAnchorEvery-th keyframe and the last; between, each one's is
+  // the one before it plus its odometry step's position variance.
+  std::vector<KeyframeId> anchors;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (i % kVarianceAnchorEvery == 0 || i + 1 == ids.size()) anchors.push_back(ids[i]);
+  }
+  const auto all = covariances(anchors);
   if (!all) return std::nullopt;
   std::vector<double> variances;
-  for (const auto& covariance : *all) {
-    // The position block leads (x y z, then rotation); the gauge keyframe's is 0.
-    const double det = covariance.topLeftCorner<3, 3>().determinant();
-    variances.push_back(det > 0.0 ? std::cbrt(det) : 0.0);
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (next < anchors.size() && anchors[next] == ids[i]) {
+      // The position block leads (x y z, then rotation); the gauge keyframe's is 0.
+      const double det = (*all)[next++].topLeftCorner<3, 3>().determinant();
+      variances.push_back(det > 0.0 ? std::cbrt(det) : 0.0);
+      continue;
+    }
+    const Pose3& before = graph_.poses[static_cast<std::size_t>(index_.at(ids[i - 1]))];
+    const Pose3& at = graph_.poses[static_cast<std::size_t>(index_.at(ids[i]))];
+    variances.push_back(variances.back() +
+                        pose_graph::stepCovariance(before.inverse() * at, params_.odometry)(0, 0));
   }
   return variances;
 }

@@ -143,58 +143,117 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
 
 }  // namespace
 
-std::vector<Information> chainInflatedInformation(const PoseGraph& graph) {
-  const int n = graph.tangentSize();
-  std::vector<const PoseGraphEdge*> odometry(graph.poses.size(), nullptr);
-  std::vector<Eigen::MatrixXd> odometry_covariance(graph.poses.size());
+namespace {
+
+/// Each pose's odometry edge to the next one (e.from + 1 == e.to, not a loop), or null.
+std::vector<const PoseGraphEdge*> odometrySteps(const PoseGraph& graph) {
+  std::vector<const PoseGraphEdge*> steps(graph.poses.size(), nullptr);
   for (const auto& e : graph.edges) {
-    if (!e.loop && e.to == e.from + 1 && !odometry[static_cast<std::size_t>(e.from)]) {
-      odometry[static_cast<std::size_t>(e.from)] = &e;
-      odometry_covariance[static_cast<std::size_t>(e.from)] = e.information.inverse();
+    if (!e.loop && e.to == e.from + 1 && !steps[static_cast<std::size_t>(e.from)]) {
+      steps[static_cast<std::size_t>(e.from)] = &e;
     }
   }
+  return steps;
+}
+
+/// The odometry steps from pose `first` to `last` composed, with their covariance in the
+/// residual's tangent space (translation in the first pose's frame, rotation a perturbation at
+/// the last); nullopt where the chain breaks.
+std::optional<std::pair<Pose3, Eigen::MatrixXd>> composeChain(
+    const PoseGraph& graph, const std::vector<const PoseGraphEdge*>& steps, int first, int last) {
+  const int n = graph.tangentSize();
+  Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(n, n);
+  Pose3 composed = Pose3::Identity();
+  for (int k = first; k < last; ++k) {
+    const PoseGraphEdge* step = steps[static_cast<std::size_t>(k)];
+    if (!step) return std::nullopt;
+    const Eigen::Matrix3d r = composed.linear();
+    const Eigen::Vector3d t = r * step->measurement.translation();
+    Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
+    Eigen::MatrixXd g = Eigen::MatrixXd::Identity(n, n);
+    if (graph.dimension == 2) {
+      f(0, 2) = -t.y();
+      f(1, 2) = t.x();
+      g.topLeftCorner<2, 2>() = r.topLeftCorner<2, 2>();
+    } else {
+      f.topRightCorner<3, 3>() = -skew(t);
+      g.topLeftCorner<3, 3>() = r;
+      g.bottomRightCorner<3, 3>() = r;
+    }
+    sigma = f * sigma * f.transpose() + g * step->information.inverse() * g.transpose();
+    composed = composed * step->measurement;
+  }
+  if (graph.dimension == 3) {  // the residual's rotation is a perturbation at the last pose
+    Eigen::MatrixXd j = Eigen::MatrixXd::Identity(n, n);
+    j.bottomRightCorner<3, 3>() = composed.linear().transpose();
+    sigma = j * sigma * j.transpose();
+  }
+  return std::make_pair(composed, sigma);
+}
+
+}  // namespace
+
+std::vector<Information> chainInflatedInformation(const PoseGraph& graph) {
+  const auto steps = odometrySteps(graph);
   std::vector<Information> result;
   for (const auto& e : graph.edges) {
     result.push_back(e.information);
     if (!e.loop) continue;
-    const int first = std::min(e.from, e.to);
-    const int last = std::max(e.from, e.to);
-    Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(n, n);
-    Eigen::Vector3d p = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
-    bool chained = true;
-    for (int k = first; k < last && chained; ++k) {
-      const PoseGraphEdge* step = odometry[static_cast<std::size_t>(k)];
-      if (!step) {
-        chained = false;
-        break;
-      }
-      const Eigen::Vector3d t = r * step->measurement.translation();
-      Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
-      Eigen::MatrixXd g = Eigen::MatrixXd::Identity(n, n);
-      if (graph.dimension == 2) {
-        f(0, 2) = -t.y();
-        f(1, 2) = t.x();
-        g.topLeftCorner<2, 2>() = r.topLeftCorner<2, 2>();
-      } else {
-        f.topRightCorner<3, 3>() = -skew(t);
-        g.topLeftCorner<3, 3>() = r;
-        g.bottomRightCorner<3, 3>() = r;
-      }
-      sigma = f * sigma * f.transpose() +
-              g * odometry_covariance[static_cast<std::size_t>(k)] * g.transpose();
-      p += t;
-      r = r * step->measurement.linear();
-    }
-    if (!chained) continue;
-    if (graph.dimension == 3) {  // the residual's rotation is a perturbation at the second pose
-      Eigen::MatrixXd j = Eigen::MatrixXd::Identity(n, n);
-      j.bottomRightCorner<3, 3>() = r.transpose();
-      sigma = j * sigma * j.transpose();
-    }
-    result.back() = (e.information.inverse() + sigma).inverse();
+    const auto chain = composeChain(graph, steps, std::min(e.from, e.to), std::max(e.from, e.to));
+    if (chain) result.back() = (e.information.inverse() + chain->second).inverse();
   }
   return result;
+}
+
+PoseGraph thinChains(const PoseGraph& graph, const std::vector<bool>& keep,
+                     std::vector<int>* node_of, std::vector<double>* weights) {
+  const auto steps = odometrySteps(graph);
+  const auto n = graph.poses.size();
+  std::vector<bool> kept(n, false);
+  for (const auto& e : graph.edges) {
+    if (e.loop)
+      kept[static_cast<std::size_t>(e.from)] = kept[static_cast<std::size_t>(e.to)] = true;
+  }
+  PoseGraph thin;
+  thin.dimension = graph.dimension;
+  node_of->assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    // A chain's ends stay too: where no step leads in or out.
+    const bool end = !steps[i] || i == 0 || !steps[i - 1];
+    if (!(kept[i] || end || (i < keep.size() && keep[i]))) continue;
+    (*node_of)[i] = static_cast<int>(thin.poses.size());
+    thin.poses.push_back(graph.poses[i]);
+  }
+  std::vector<double> thin_weights;
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) {
+    const PoseGraphEdge& e = graph.edges[k];
+    const bool step = steps[static_cast<std::size_t>(e.from)] == &e;
+    if (step) continue;  // composed below
+    PoseGraphEdge mapped = e;
+    mapped.from = (*node_of)[static_cast<std::size_t>(e.from)];
+    mapped.to = (*node_of)[static_cast<std::size_t>(e.to)];
+    if (mapped.from < 0 || mapped.to < 0) continue;  // another odometry edge to a dropped pose
+    thin.edges.push_back(mapped);
+    thin_weights.push_back(k < weights->size() ? (*weights)[k] : 1.0);
+  }
+  int previous = -1;
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((*node_of)[i] < 0) continue;
+    if (previous >= 0 && steps[static_cast<std::size_t>(previous)]) {
+      if (const auto chain = composeChain(graph, steps, previous, static_cast<int>(i))) {
+        PoseGraphEdge composed;
+        composed.from = (*node_of)[static_cast<std::size_t>(previous)];
+        composed.to = (*node_of)[i];
+        composed.measurement = chain->first;
+        composed.information = chain->second.inverse();
+        thin.edges.push_back(composed);
+        thin_weights.push_back(1.0);
+      }
+    }
+    previous = static_cast<int>(i);
+  }
+  *weights = std::move(thin_weights);
+  return thin;
 }
 
 void DcsLoss::Evaluate(double s, double rho[3]) const {

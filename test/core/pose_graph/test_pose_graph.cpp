@@ -554,6 +554,37 @@ TEST(PoseGraph, CovariancesNeedTheGaugeAndGrowAlongTheChain) {
   EXPECT_NEAR(fixed->front().norm(), 0.0, 1e-12);
 }
 
+TEST(PoseGraph, AThinnedGraphHasTheSameMarginalsAtTheKeptPoses) {
+  // Three laps (loops every third pose of laps 2 and 3), solved; then thinned to three poses
+  // and the loops' ends: the marginals of the kept poses must not change.
+  Synthetic s = laps(3, 3, 8, 0.01, 11);
+  const PoseGraphOptimizer optimizer{OptimizerParams{}};
+  optimizer.optimize(s.graph);
+  for (std::size_t k = 0; k < s.graph.edges.size(); ++k) {  // half the loops weigh less
+    if (s.graph.edges[k].loop && k % 2) s.graph.edges[k].information *= 0.25;
+  }
+  s.graph.edges.push_back(s.graph.edges.back());  // a loop at weight 0: as good as absent
+  std::vector<double> weights(s.graph.edges.size(), 1.0);
+  weights.back() = 0.0;
+  const std::vector<int> ids = {5, 40, 95};
+  const auto whole = optimizer.marginalCovariances(s.graph, ids, weights);
+  std::vector<bool> keep(s.graph.poses.size(), false);
+  for (const int id : ids) keep[static_cast<std::size_t>(id)] = true;
+  std::vector<int> node_of;
+  const PoseGraph thin = thinChains(s.graph, keep, &node_of, &weights);
+  EXPECT_LT(thin.poses.size(), s.graph.poses.size() * 3 / 4) << "the first lap's inner poses go";
+  EXPECT_EQ(weights.size(), thin.edges.size());
+  std::vector<int> thin_ids;
+  for (const int id : ids) thin_ids.push_back(node_of[static_cast<std::size_t>(id)]);
+  ASSERT_EQ(node_of[1], -1) << "an odometry chain's inner pose";
+  const auto thinned = optimizer.marginalCovariances(thin, thin_ids, weights);
+  ASSERT_TRUE(whole && thinned);
+  // To first order: the composed steps are linearised at their composition (0.3 % here).
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    EXPECT_LT(((*thinned)[i] - (*whole)[i]).norm(), 0.01 * (*whole)[i].norm()) << ids[i];
+  }
+}
+
 TEST(OdometryUncertainty, PropagationMatchesSampledChains) {
   // 40 steps of 1 m around a square (turns of 90 degrees), each step perturbed as the model
   // says: position error in its start frame, rotation error before the step's rotation.

@@ -154,12 +154,16 @@ class TeamGraph {
   std::vector<std::string> save(const std::string& dir) const;
 
   /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
-  /// teammates' parts and every accepted closure included).
+  /// teammates' parts and every accepted closure included), computed on the graph thinned to
+  /// them and the loops' keyframes (pose_graph::thinChains).
   std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
-  /// CCIR's u_k of the given keyframes: the geometric mean of the eigenvalues of each one's
-  /// marginal position covariance, m^2 (monotone in their product, the thesis's u, and still a
-  /// variance: the product of three ~1e-3 m^2 variances underflows the scale of everything else).
+  /// CCIR's u_k of the given keyframes (in trajectory order): the geometric mean of the
+  /// eigenvalues of each one's marginal position covariance, m^2 (monotone in their product, the
+  /// thesis's u, and still a variance: the product of three ~1e-3 m^2 variances underflows the
+  /// scale of everything else). Marginals at every kVarianceAnchorEvery-th and the last; the
+  /// others carry the one before them plus their odometry step's position variance.
   std::optional<std::vector<double>> positionVariances(const std::vector<KeyframeId>& ids) const;
+  static constexpr std::size_t kVarianceAnchorEvery = 10;
 
  private:
   std::string robot_;

@@ -64,6 +64,16 @@ struct OptimizationResult {
 /// ICRA 2015, within one robot). Loops without an odometry chain keep their information.
 std::vector<Information> chainInflatedInformation(const PoseGraph& graph);
 
+/// The graph with its odometry chains thinned: the poses `keep` says, the loops' and each
+/// chain's ends stay, and the odometry steps between consecutive ones are composed into one
+/// edge (its covariance propagated along them). The marginals of the poses kept are those of
+/// the whole graph to first order (eliminating a chain's inner poses is exact for a linear
+/// chain), at the cost of a graph of loops rather than of poses. `node_of`: each pose's index
+/// in the result, or -1; `weights` (per edge, as marginalCovariances takes them; missing
+/// ones 1) become the result's.
+PoseGraph thinChains(const PoseGraph& graph, const std::vector<bool>& keep,
+                     std::vector<int>* node_of, std::vector<double>* weights);
+
 /// Where one optimize() starts beyond the graph's poses: a solve over part of a larger graph
 /// (core/backend/team_graph.h) holds its boundary constant and resumes its switches.
 struct SolveStart {
