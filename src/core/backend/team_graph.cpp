@@ -242,6 +242,7 @@ std::optional<std::vector<bool>> TeamGraph::window(const Assembled& a) const {
 int TeamGraph::solve(Assembled& a, bool full, double max_time_s, BackendSnapshot& snapshot) {
   PoseGraph& graph = a.graph;
   const std::size_t n = graph.poses.size();
+  if (n < 2) return 0;
   std::optional<std::vector<bool>> variable;
   if (!full && params_.solve_window_keyframes > 0) variable = window(a);
   const bool whole = !variable;
