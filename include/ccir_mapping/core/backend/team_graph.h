@@ -210,7 +210,7 @@ class TeamGraph {
     std::vector<LoopKey> edge_keys;               // of each edge (loops only)
     std::vector<std::optional<Link>> edge_links;  // of each inter-robot loop
     std::vector<std::pair<int, int>> gated_out;
-    BackendSnapshot::LoopCounts loops;  // intra and inter; rejected ones counted by report()
+    BackendSnapshot::LoopCounts loops;  // intra and inter; rejected ones counted by keep()
   };
   Assembled assemble() const;
   /// Solves `a` (its poses updated) windowed or whole, keeps the loops' states; returns the
