@@ -136,6 +136,9 @@ class BackendNodelet final : public PipelineNodelet {
     status.add("intra-robot loops rejected", latest.loops.intra_rejected);
     status.add("inter-robot loops in the graph", latest.loops.inter);
     status.add("inter-robot loops rejected", latest.loops.inter_rejected);
+    status.add("windowed solves", latest.windowed_solves);
+    status.add("full solves", latest.full_solves);
+    status.addf("last full solve's correction m", "%.3f", latest.full_correction_m);
   }
 
   ros_params::BackendSettings settings_;

@@ -49,7 +49,13 @@ BackendStage::Latest BackendStage::latest() const {
 void BackendStage::optimized(const BackendSnapshot& snapshot, const TeamGraph& graph) {
   {
     std::lock_guard<std::mutex> lock(latest_mutex_);
-    latest_ = {snapshot.solve_s, snapshot.loops};
+    latest_.solve_s = snapshot.solve_s;
+    latest_.loops = snapshot.loops;
+    latest_.windowed_solves += snapshot.solved == BackendSnapshot::Solve::kWindow;
+    if (snapshot.solved == BackendSnapshot::Solve::kFull) {
+      ++latest_.full_solves;
+      latest_.full_correction_m = snapshot.full_correction_m;
+    }
   }
   if (!hooks_.optimized) return;
   Output out{snapshot, std::nullopt};

@@ -749,6 +749,17 @@ TEST(TeamGraph, PositionVariancesGrowAlongOdometryAndShrinkWithALoop) {
   EXPECT_FALSE(graph.positionVariances({99})) << "an unknown keyframe";
 }
 
+/// robot_a's closure from keyframe `from` to `to`, measured exactly.
+LoopClosureData ownLoop(const std::vector<Pose3>& poses, KeyframeId from, KeyframeId to) {
+  LoopClosureData loop;
+  loop.robot_from = loop.robot_to = "robot_a";
+  loop.keyframe_from = from;
+  loop.keyframe_to = to;
+  loop.relative = poses[from].inverse() * poses[to];
+  loop.covariance = Matrix6::Identity() * 1e-4;
+  return loop;
+}
+
 TEST(TeamGraphWorker, OptimisesOnATickAndReportsWhatItRefused) {
   using Worker = TeamGraphWorker;
   std::mutex mutex;
@@ -806,12 +817,7 @@ TEST(TeamGraphWorker, OptimisesOnATickAndReportsWhatItRefused) {
     }
     // A loop closure is solved at the next tick; the same one again is a duplicate (a teammate
     // found it too).
-    LoopClosureData loop;
-    loop.robot_from = loop.robot_to = "robot_a";
-    loop.keyframe_from = 0;
-    loop.keyframe_to = 4;
-    loop.relative = poses[0].inverse() * poses[4];
-    loop.covariance = Matrix6::Identity() * 1e-4;
+    const LoopClosureData loop = ownLoop(poses, 0, 4);
     EXPECT_FALSE(worker.addOwnLoop(loop)) << "an intra-robot closure stays with this robot";
     worker.tick();
     ASSERT_TRUE(optimised(2));
@@ -850,12 +856,7 @@ TEST(TeamGraphWorker, OnTheCallersThreadEachCallReturnsWithItsOptimisationDone) 
   EXPECT_FALSE(snapshots[0].cut_short);
   worker.tick();
   EXPECT_EQ(snapshots.size(), 1U) << "nothing new: no optimisation";
-  LoopClosureData loop;
-  loop.robot_from = loop.robot_to = "robot_a";
-  loop.keyframe_from = 0;
-  loop.keyframe_to = 4;
-  loop.relative = poses[0].inverse() * poses[4];
-  loop.covariance = Matrix6::Identity() * 1e-4;
+  const LoopClosureData loop = ownLoop(poses, 0, 4);
   worker.addOwnLoop(loop);
   EXPECT_EQ(snapshots.size(), 1U) << "a loop closure waits for a tick";
   worker.tick();
@@ -884,13 +885,7 @@ TEST(TeamGraphWorker, AnOptimisationCutShortByItsTimeBoundRunsAgainOnTheNextTick
     poses.emplace_back(Eigen::Translation3d(std::cos(0.05 * id), std::sin(0.05 * id), 0.0));
     worker.add(Worker::OwnKeyframe{"robot_a", id, fromSeconds(100.0 + id), poses.back()});
   }
-  LoopClosureData loop;  // something to solve
-  loop.robot_from = loop.robot_to = "robot_a";
-  loop.keyframe_from = 0;
-  loop.keyframe_to = 299;
-  loop.relative = poses[0].inverse() * poses[299];
-  loop.covariance = Matrix6::Identity() * 1e-4;
-  worker.addOwnLoop(loop);
+  worker.addOwnLoop(ownLoop(poses, 0, 299));  // something to solve
   worker.tick();
   ASSERT_EQ(snapshots.size(), 1U);
   EXPECT_TRUE(snapshots[0].cut_short) << snapshots[0].solve_s << " s";

@@ -78,6 +78,10 @@ class BackendStage {
   struct Latest {
     double solve_s = 0.0;
     BackendSnapshot::LoopCounts loops;
+    /// Solves so far, and how far the newest full solve moved the farthest pose from where the
+    /// windowed ones had left it (BackendSnapshot::full_correction_m).
+    int windowed_solves = 0, full_solves = 0;
+    double full_correction_m = 0.0;
   };
   Latest latest() const;
   /// Writes the graph's files (TeamGraph::save) to DIR once the optimisation under way is done;
