@@ -554,6 +554,23 @@ TEST(PoseGraph, CovariancesNeedTheGaugeAndGrowAlongTheChain) {
   EXPECT_NEAR(fixed->front().norm(), 0.0, 1e-12);
 }
 
+TEST(PoseGraph, AWarmStartHoldsItsFixedPosesAndRefusesVectorsOfTheWrongSize) {
+  Synthetic s = laps(3, 2, 6, 0.01, 5);
+  const PoseGraphOptimizer optimizer{OptimizerParams{}};
+  SolveStart start;
+  start.fixed.assign(s.graph.poses.size(), false);
+  start.fixed[0] = start.fixed[10] = true;
+  const Pose3 held = s.graph.poses[10];
+  const auto result = optimizer.optimize(s.graph, std::nullopt, start);
+  EXPECT_TRUE(s.graph.poses[10].isApprox(held, 1e-12)) << "held where it was";
+  EXPECT_EQ(result.switches.size(), s.graph.edges.size());
+  start.fixed.pop_back();
+  EXPECT_THROW(optimizer.optimize(s.graph, std::nullopt, start), std::invalid_argument);
+  start.fixed.clear();
+  start.switches = {1.0};
+  EXPECT_THROW(optimizer.optimize(s.graph, std::nullopt, start), std::invalid_argument);
+}
+
 TEST(PoseGraph, AThinnedGraphHasTheSameMarginalsAtTheKeptPoses) {
   // Three laps (loops every third pose of laps 2 and 3), solved; then thinned to three poses
   // and the loops' ends: the marginals of the kept poses must not change.
