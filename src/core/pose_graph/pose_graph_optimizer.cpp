@@ -36,15 +36,20 @@ Eigen::MatrixXd sqrtInformation(const PoseGraphEdge& edge, int size) {
   return llt.matrixU();  // U^T U = information
 }
 
+Eigen::Vector3d planarOf(const Pose3& pose) {
+  return {pose.translation().x(), pose.translation().y(), yawOf(pose)};
+}
+
 Edge2D edge2D(const PoseGraphEdge& edge, double scale = 1.0) {
-  return {Eigen::Vector3d(edge.measurement.translation().x(), edge.measurement.translation().y(),
-                          yawOf(edge.measurement)),
-          scale * sqrtInformation(edge, 3)};
+  return {planarOf(edge.measurement), scale * sqrtInformation(edge, 3), edge.hasOffsets(),
+          planarOf(edge.from_offset), planarOf(edge.to_offset)};
 }
 
 Edge3D edge3D(const PoseGraphEdge& edge, double scale = 1.0) {
-  return {edge.measurement.translation(), Eigen::Quaterniond(edge.measurement.linear()),
-          scale * sqrtInformation(edge, 6)};
+  return {edge.measurement.translation(),   Eigen::Quaterniond(edge.measurement.linear()),
+          scale * sqrtInformation(edge, 6), edge.hasOffsets(),
+          edge.from_offset.translation(),   Eigen::Quaterniond(edge.from_offset.linear()),
+          edge.to_offset.translation(),     Eigen::Quaterniond(edge.to_offset.linear())};
 }
 
 /// The graph's poses as Ceres parameter blocks: 2D (x y theta); 3D position and quaternion.
@@ -149,7 +154,8 @@ namespace {
 std::vector<const PoseGraphEdge*> odometrySteps(const PoseGraph& graph) {
   std::vector<const PoseGraphEdge*> steps(graph.poses.size(), nullptr);
   for (const auto& e : graph.edges) {
-    if (!e.loop && e.to == e.from + 1 && !steps[static_cast<std::size_t>(e.from)]) {
+    if (!e.loop && e.to == e.from + 1 && !e.hasOffsets() &&
+        !steps[static_cast<std::size_t>(e.from)]) {
       steps[static_cast<std::size_t>(e.from)] = &e;
     }
   }

@@ -346,6 +346,41 @@ TEST(Residuals, SwitchableEdgeJacobiansPassCeresGradientChecker) {
   }
 }
 
+TEST(Residuals, AnEdgeWithOffsetsIsThePlainEdgeAtTheOffsetPoses) {
+  // (x_from * from_offset)^-1 (x_to * to_offset) against the measurement, in 2D and 3D.
+  const auto planar = [](double x, double y, double yaw) {
+    Pose3 pose = Pose3::Identity();
+    pose.translation() << x, y, 0.0;
+    pose.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return pose;
+  };
+  for (const int dimension : {2, 3}) {
+    PoseGraph offset;
+    offset.dimension = dimension;
+    offset.poses = {planar(1.0, 2.0, 0.3), planar(-2.0, 0.5, -1.1)};
+    if (dimension == 3) {
+      offset.poses[1].linear() =
+          offset.poses[1].linear() * Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized());
+      offset.poses[1].translation().z() = 0.7;
+    }
+    PoseGraphEdge edge;
+    edge.to = 1;
+    edge.measurement = planar(0.2, -0.3, 0.5);
+    edge.information = Eigen::MatrixXd::Identity(offset.tangentSize(), offset.tangentSize());
+    edge.from_offset = planar(4.0, -1.0, 0.8);
+    edge.to_offset = planar(-3.0, 2.0, -0.6);
+    ASSERT_TRUE(edge.hasOffsets());
+    PoseGraph plain = offset;
+    plain.poses = {offset.poses[0] * edge.from_offset, offset.poses[1] * edge.to_offset};
+    PoseGraphEdge plain_edge = edge;
+    plain_edge.from_offset = plain_edge.to_offset = Pose3::Identity();
+    ASSERT_FALSE(plain_edge.hasOffsets());
+    const double expected = PoseGraphOptimizer::chi2(plain, plain_edge);
+    EXPECT_GT(expected, 1.0) << dimension;
+    EXPECT_NEAR(PoseGraphOptimizer::chi2(offset, edge), expected, 1e-9 * expected) << dimension;
+  }
+}
+
 TEST(Residuals, QuaternionManifoldPlusJacobianMatchesPlus) {
   const ceres::EigenQuaternionManifold manifold;
   const Eigen::Quaterniond q(0.5, 0.5, -0.5, 0.5);

@@ -33,18 +33,23 @@ struct BackendParams {
   /// the graph is solved when a loop closure arrived (or a keyframe one refers to, or a teammate
   /// joined): at most one solve per period.
   double optimize_period_s = 1.0;
-  /// Between full solves, a solve holds this robot's keyframes constant but the newest this
-  /// many (and those placed since the last solve); teammates' stay free, and every loop's switch
-  /// resumes from the last solve: a new loop's correction goes into the recent drift. A loop
-  /// with neither keyframe free, a teammate joining or placed again, and full_solve_period_s
-  /// make the solve a full one. 0: every solve is full.
+  /// Between full solves, a solve frees each robot's newest this many keyframes (and those
+  /// placed since the last solve); this robot's older ones are held, each teammate's older ones
+  /// move as one rigid block, and every loop's switch resumes from the last solve: a new loop's
+  /// correction goes into the recent drift. A loop with neither keyframe free or that misses by
+  /// more than full_solve_loop_error_m, a teammate joining or placed again, and
+  /// full_solve_period_s make the solve a full one. 0: every solve is full.
   int solve_window_keyframes = 100;
+  /// A new loop the current estimate misses by more than this (its translation error plus its
+  /// rotation error times 10 m, where its scan's walls are) makes the solve a full one: a window
+  /// would bend only its newest keyframes to a revisit's whole drift.
+  double full_solve_loop_error_m = 1.0;
   /// Mission time between full solves (every pose and switch free, switches from their prior),
   /// the reference the windowed ones drift from; only when a windowed solve happened since.
   double full_solve_period_s = 30.0;
-  /// u_k, the marginal covariances of every own keyframe (a ceres::Covariance over the whole
-  /// graph, whose cost grows with it), are computed at most this often in mission time; between,
-  /// a newer keyframe's is the newest computed one's plus the odometry drift since.
+  /// u_k, the own keyframes' marginal covariances (a ceres::Covariance over the graph thinned to
+  /// every 10th keyframe and the loops' ends), are computed at most this often in mission time;
+  /// between, a newer keyframe's is the newest computed one's plus the odometry drift since.
   double uncertainty_period_s = 10.0;
   /// Upper bound on one optimisation's wall time.
   double max_solve_time_s = 0.5;

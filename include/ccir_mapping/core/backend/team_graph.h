@@ -181,6 +181,7 @@ class TeamGraph {
   struct Joined {
     Pose3 transform = Pose3::Identity();
     std::map<KeyframeId, Pose3> poses;
+    std::set<KeyframeId> unsolved;  // placed by odometry since the last solve
   };
   std::map<std::string, Joined> joined_;
   std::vector<pose_graph::LoopClosureData> loops_;  // all of them; resolved at each optimisation
@@ -216,10 +217,18 @@ class TeamGraph {
   /// Solves `a` (its poses updated) windowed or whole, keeps the loops' states; returns the
   /// variable poses.
   int solve(Assembled& a, bool full, double max_time_s, BackendSnapshot& snapshot);
-  /// Nodes a windowed solve of `a` frees: the newest solve_window_keyframes own ones and those
-  /// placed since the last solve, and every teammate's (never the first node, the gauge);
-  /// nullopt when a new loop has neither keyframe among them.
-  std::optional<std::vector<bool>> window(const Assembled& a) const;
+  /// What a windowed solve of `a` frees: per robot, the newest solve_window_keyframes keyframes
+  /// and those placed since the last solve (never the first node, the gauge). The rest of this
+  /// robot's is held; the rest of each teammate's moves in rigid blocks of consecutive keyframes,
+  /// each by one pose, its newest keyframe's (`block`: that node for each keyframe of a block,
+  /// else -1). Why not held: a teammate's older keyframes must follow this robot's corrections,
+  /// or its loops pull the window towards a stale placement. nullopt when a new loop has neither
+  /// keyframe free or the estimate misses it by more than full_solve_loop_error_m.
+  struct Window {
+    std::vector<bool> variable;
+    std::vector<int> block;
+  };
+  std::optional<Window> window(const Assembled& a) const;
   /// Each link's EM (or re-check) within kEmTimeShare of max_solve_time_s: the gate admits
   /// its inliers, a teammate whose transform is found joins, a disagreement is resolved (see
   /// optimize()); the team estimates go into the snapshot, the EM's closures of teammates kept

@@ -25,6 +25,15 @@ struct PoseGraphEdge {
   bool loop = false;
   /// Known only for injected outliers (benchmarks, tests).
   bool outlier = false;
+  /// Constant poses right-multiplied to the two ends: the edge constrains (x_from *
+  /// from_offset)^-1 (x_to * to_offset). A windowed solve (core/backend/team_graph.h) moves a
+  /// held stretch of a teammate's keyframes as one rigid block: one pose stands for all of them.
+  Pose3 from_offset = Pose3::Identity();
+  Pose3 to_offset = Pose3::Identity();
+
+  bool hasOffsets() const {
+    return !from_offset.matrix().isIdentity(0.0) || !to_offset.matrix().isIdentity(0.0);
+  }
 };
 
 /// A pose's name in a multi-robot graph, written as GTSAM's symbols write it (the convention of
