@@ -31,15 +31,22 @@ ScanRanker::ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<do
 }
 
 ScanRanker::ScanRanker(std::vector<const std::vector<VoxelGain>*> gains, std::vector<double> bonus,
-                       const Coverage* held)
+                       const Coverage* held, std::vector<double> held_marginals)
     : gains_(std::move(gains)), bonus_(std::move(bonus)), held_(held) {
-  init();
+  init(std::move(held_marginals));
 }
 
-void ScanRanker::init() {
+void ScanRanker::init(std::vector<double> held_marginals) {
   if (bonus_.empty()) bonus_.assign(gains_.size(), 0.0);
   if (bonus_.size() != gains_.size()) {
     throw std::invalid_argument("ScanRanker: one bonus per scan, or none");
+  }
+  if (!held_marginals.empty()) {
+    if (held_marginals.size() != gains_.size()) {
+      throw std::invalid_argument("ScanRanker: one held marginal per scan, or none");
+    }
+    for (std::size_t i = 0; i < gains_.size(); ++i) alone_.push_back(bonus_[i] + held_marginals[i]);
+    return;
   }
   // The same sums marginalGain() makes with nothing chosen yet, so rankings agree.
   const Coverage none;

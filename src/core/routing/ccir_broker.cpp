@@ -65,6 +65,14 @@ std::vector<KeyframeId> CcirBroker::addKeyframe(KeyframeId id, Stamp stamp, cons
   kept.size_bytes = size_bytes;
   kept.footprint = std::move(footprint);
   kept.footprint_bits = information::Coverage().marginal(kept.footprint);
+  kept.footprint_min = kept.footprint_max = octomap::OcTreeKey(0, 0, 0);
+  for (std::size_t i = 0; i < kept.footprint.size(); ++i) {
+    const octomap::OcTreeKey& key = kept.footprint[i].first;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (i == 0 || key[axis] < kept.footprint_min[axis]) kept.footprint_min[axis] = key[axis];
+      if (i == 0 || key[axis] > kept.footprint_max[axis]) kept.footprint_max[axis] = key[axis];
+    }
+  }
   kept_by_stamp_[stamp] = id;
   std::vector<KeyframeId> evicted;
   while (kept_.size() > static_cast<std::size_t>(params_.max_kept_scans)) {
@@ -127,11 +135,28 @@ bool CcirBroker::holds(const Peer& peer, KeyframeId id) const {
   return peer.unacknowledged.count(id) || peer.acknowledged.count(id);
 }
 
+double CcirBroker::marginal(Peer& peer, KeyframeId id, const Kept& kept) const {
+  const auto [it, added] = peer.marginals.try_emplace(id, 0.0);
+  if (added) it->second = peer.belief.marginal(kept.footprint);
+  return it->second;
+}
+
 void CcirBroker::markSent(const std::string& name, Peer& peer, KeyframeId id, double now_s) {
   const Kept& kept = kept_.at(id);
   peer.unacknowledged[id] = now_s;
   peer.offered.erase(id);
   peer.belief.add(kept.footprint);
+  // What the belief gained lies in this footprint's box: values of scans whose box meets it
+  // change (and of scans no longer kept go).
+  for (auto it = peer.marginals.begin(); it != peer.marginals.end();) {
+    const auto other = kept_.find(it->first);
+    bool meets = other != kept_.end();
+    for (int axis = 0; meets && axis < 3; ++axis) {
+      meets = other->second.footprint_min[axis] <= kept.footprint_max[axis] &&
+              kept.footprint_min[axis] <= other->second.footprint_max[axis];
+    }
+    it = meets || other == kept_.end() ? peer.marginals.erase(it) : std::next(it);
+  }
   peer.unreported_bytes += kept.size_bytes;
   PeerCounters& c = counters_[name];
   ++c.scans_sent;
@@ -150,6 +175,7 @@ void CcirBroker::expireUnacknowledged(Peer& peer, double now_s) {
   }
   if (!lost) return;
   peer.belief.clear();
+  peer.marginals.clear();
   for (const auto& [id, kept] : kept_) {
     if (holds(peer, id)) peer.belief.add(kept.footprint);
   }
@@ -188,7 +214,7 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
     max_variance = std::max(max_variance, kept.variance_m2);
     if (holds(*peer, id)) continue;
     if (kept.footprint_bits <= 0.0 ||
-        peer->belief.marginal(kept.footprint) < params_.min_novelty * kept.footprint_bits) {
+        marginal(*peer, id, kept) < params_.min_novelty * kept.footprint_bits) {
       continue;  // the teammate knows (nearly) all it shows
     }
     ids.push_back(id);
@@ -216,11 +242,10 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
 
   const double lambda = params_.loop_closure_weight;
   const double k = peer->map_from_peer.has_value() ? 1.0 : params_.unknown_transform_factor;
-  double eta_i = 0.0;
-  if (lambda < 1.0) {
-    for (const Kept* kept : candidates)
-      eta_i = std::max(eta_i, peer->belief.marginal(kept->footprint));
-  }
+  std::vector<double> marginals;
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    marginals.push_back(marginal(*peer, ids[i], *candidates[i]));
+  const double eta_i = lambda < 1.0 ? *std::max_element(marginals.begin(), marginals.end()) : 0.0;
   std::vector<std::pair<std::size_t, double>> chosen;  // (candidate, U)
   if (eta_i <= 0.0) {
     // Map information adds nothing: rank by F alone (the lower id first on ties).
@@ -242,7 +267,8 @@ std::optional<Offer> CcirBroker::makeOffer(const std::string& name, double now_s
       bonus.push_back(lambda * f[i] / scale);
     }
     const auto bonus_of = [bonus](std::size_t i) { return bonus[i]; };
-    const information::ScanRanker ranker(std::move(gains), std::move(bonus), &peer->belief);
+    const information::ScanRanker ranker(std::move(gains), std::move(bonus), &peer->belief,
+                                         std::move(marginals));
     for (const auto& r : ranker.rankLazy(n)) {
       // What it adds beyond the picks before it, as a share of what it shows.
       const double novelty = (r.gain - bonus_of(r.index)) / candidates[r.index]->footprint_bits;

@@ -361,6 +361,26 @@ TEST(ScanRanker, LazyGreedyEqualsNaiveGreedyWithFarFewerEvaluations) {
   // Asking for more than there are returns them all; a bonus per scan or none.
   EXPECT_EQ(ScanRanker(scans).rankLazy(500).size(), scans.size());
   EXPECT_THROW(ScanRanker(scans, {1.0}), std::invalid_argument);
+
+  // Over a held map, with each scan's marginal over it given (as the Broker keeps them): the
+  // same ranking as when the ranker computes them.
+  Coverage held;
+  for (std::size_t s = 0; s < scans.size(); s += 7) held.add(scans[s]);
+  std::vector<const std::vector<VoxelGain>*> kept;
+  std::vector<double> marginals;
+  for (const auto& scan : scans) {
+    kept.push_back(&scan);
+    marginals.push_back(held.marginal(scan));
+  }
+  const auto computed = ScanRanker(kept, bonus, &held).rankLazy(15);
+  const auto given = ScanRanker(kept, bonus, &held, marginals).rankLazy(15);
+  ASSERT_EQ(given.size(), computed.size());
+  for (std::size_t i = 0; i < given.size(); ++i) {
+    EXPECT_EQ(given[i].index, computed[i].index) << "rank " << i;
+    EXPECT_DOUBLE_EQ(given[i].gain, computed[i].gain);
+  }
+  EXPECT_NE(computed.front().index, lazy.front().index) << "the held map changes the ranking";
+  EXPECT_THROW(ScanRanker(kept, bonus, &held, {1.0}), std::invalid_argument);
 }
 
 TEST(ScanRanker, CoarsenedGainsSumPerBlock) {

@@ -37,8 +37,10 @@ class ScanRanker {
   ScanRanker(std::vector<std::vector<VoxelGain>> gains, std::vector<double> bonus = {},
              const Coverage* held = nullptr);
   /// The same over gains the caller keeps (they must outlive the ranker): no copy.
+  /// `held_marginals`: each scan's held->marginal when the caller has them already (empty: the
+  /// ranker computes them).
   ScanRanker(std::vector<const std::vector<VoxelGain>*> gains, std::vector<double> bonus,
-             const Coverage* held);
+             const Coverage* held, std::vector<double> held_marginals = {});
 
   /// The best `n` scans in the order chosen; ties go to the lower index. O(n L C).
   std::vector<RankedScan> rankNaive(std::size_t n) const;
@@ -50,7 +52,7 @@ class ScanRanker {
  private:
   double marginalGain(std::size_t scan, const Coverage& covered) const;
 
-  void init();
+  void init(std::vector<double> held_marginals = {});
 
   std::vector<std::vector<VoxelGain>> owned_;
   std::vector<const std::vector<VoxelGain>*> gains_;

@@ -29,6 +29,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "ccir_mapping/core/information/coverage.h"
@@ -135,8 +136,9 @@ class CcirBroker {
     Pose3 pose;
     std::size_t size_bytes = 0;
     std::vector<information::VoxelGain> footprint;
-    double footprint_bits = 0.0;  // its information to a map that knows nothing
-    double variance_m2 = -1.0;    // < 0: not known yet
+    octomap::OcTreeKey footprint_min, footprint_max;  // the blocks' bounding box
+    double footprint_bits = 0.0;                      // its information to a map that knows nothing
+    double variance_m2 = -1.0;                        // < 0: not known yet
   };
   struct Peer {
     LinkState link;
@@ -150,6 +152,9 @@ class CcirBroker {
     std::map<KeyframeId, double> unacknowledged;
     std::set<KeyframeId> acknowledged;
     information::Coverage belief;
+    /// belief.marginal of kept scans, computed once: the belief only grows by what is sent to
+    /// the teammate, so a value holds until a scan whose footprint box meets it is sent.
+    std::unordered_map<KeyframeId, double> marginals;
     std::uint32_t offer_sequence = 0;
     /// Ids offered and not sent since: what a request may ask for.
     std::set<KeyframeId> offered;
@@ -161,6 +166,8 @@ class CcirBroker {
   };
 
   bool holds(const Peer& peer, KeyframeId id) const;
+  /// What kept scan `id` would add to the teammate's believed map (Peer::marginals).
+  double marginal(Peer& peer, KeyframeId id, const Kept& kept) const;
   void markSent(const std::string& name, Peer& peer, KeyframeId id, double now_s);
   /// Scans sent too long ago without a receipt are taken as lost; the belief is rebuilt.
   void expireUnacknowledged(Peer& peer, double now_s);
