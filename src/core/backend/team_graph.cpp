@@ -260,21 +260,24 @@ std::optional<TeamGraph::Window> TeamGraph::window(const Assembled& a) const {
     }
     begin = end;
   }
-  const auto free = [&](int i) {
-    return w.variable[static_cast<std::size_t>(i)] && w.block[static_cast<std::size_t>(i)] < 0;
+  // A keyframe moves in the solve when free or in a teammate's block (rigidly): a teammate's
+  // always does, so an inter-robot loop never needs a full solve. An own loop does when both its
+  // keyframes are held, or when the estimate misses it by a revisit's drift.
+  const auto moves = [&](int i) {
+    return w.variable[static_cast<std::size_t>(i)] || w.block[static_cast<std::size_t>(i)] >= 0;
   };
   const auto& poses = a.graph.poses;
   for (std::size_t k = 0; k < a.graph.edges.size(); ++k) {
     const PoseGraphEdge& e = a.graph.edges[k];
     if (!e.loop || loop_states_.count(a.edge_keys[k])) continue;
+    if (!moves(e.from) && !moves(e.to)) return std::nullopt;
+    if (a.edge_links[k]) continue;
     // How far the estimate misses the loop where its scan's walls are.
     const Pose3 miss = e.measurement.inverse() * poses[static_cast<std::size_t>(e.from)].inverse() *
                        poses[static_cast<std::size_t>(e.to)];
     const double miss_m =
         miss.translation().norm() + kLoopMissRadiusM * Eigen::AngleAxisd(miss.linear()).angle();
-    if ((!free(e.from) && !free(e.to)) || miss_m > params_.full_solve_loop_error_m) {
-      return std::nullopt;  // a new loop between held keyframes, or a revisit's whole drift
-    }
+    if (miss_m > params_.full_solve_loop_error_m) return std::nullopt;
   }
   return w;
 }

@@ -222,8 +222,8 @@ class TeamGraph {
   /// robot's is held; the rest of each teammate's moves in rigid blocks of consecutive keyframes,
   /// each by one pose, its newest keyframe's (`block`: that node for each keyframe of a block,
   /// else -1). Why not held: a teammate's older keyframes must follow this robot's corrections,
-  /// or its loops pull the window towards a stale placement. nullopt when a new loop has neither
-  /// keyframe free or the estimate misses it by more than full_solve_loop_error_m.
+  /// or its loops pull the window towards a stale placement. nullopt when a new own loop has
+  /// neither keyframe free or the estimate misses it by more than full_solve_loop_error_m.
   struct Window {
     std::vector<bool> variable;
     std::vector<int> block;
