@@ -8,10 +8,12 @@
 // are replaced by false ones, in groups that agree with each other where "the mine repeats"
 // (--false-mode grouped) or at random places (random). Prints JSON: per robot the ATE of every
 // keyframe in its graph (own and teammates', after one rigid alignment to the truth), the
-// team-transform errors, the accepted transforms, and the optimisation times (p50 / p95 / max).
+// team-transform errors, the accepted transforms, the optimisation times (p50 / p95 / max) and
+// those of u_k over all own keyframes after each (p50 / p95 / the last).
 // Needs no lidar: only the mission's odometry is recorded.
 // --g2o-dir writes each robot's final team graph, which pgo_benchmark reads (--inter-robot).
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <random>
@@ -251,6 +253,7 @@ struct Results {
   std::vector<std::string> robots;
   std::vector<Outcome> graph, baseline;
   std::vector<double> solve_s_graph, solve_s_baseline;
+  std::vector<double> uncertainty_s;         // the team graph's u_k of all own keyframes, per solve
   int windowed_solves = 0, full_solves = 0;  // the team graph's
 };
 
@@ -369,6 +372,10 @@ Results run(const Options& o) {
       r.full_solves += last_graph.solved == BackendSnapshot::Solve::kFull;
       r.solve_s_baseline.push_back(last_baseline.solve_s);
       if (last_graph.ids.size() > 1) {
+        const auto start = std::chrono::steady_clock::now();
+        if (!graph.positionVariances(last_graph.ids)) throw std::runtime_error("no u_k");
+        r.uncertainty_s.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         ate_sum[0] += ownAte(last_graph, robot, kf);
         ate_sum[1] += ownAte(last_baseline, robot, kf);
         ++ate_count;
@@ -446,11 +453,14 @@ void report(const Options& o, const Results& r) {
       "  \"optimisation_s\": {\"team_graph\": {\"runs\": %zu, \"windowed\": %d, \"full\": %d, "
       "\"p50\": %.3f, "
       "\"p95\": %.3f, \"max\": %.3f}, \"today\": {\"p50\": %.3f, \"p95\": %.3f, "
-      "\"max\": %.3f}}\n}\n",
+      "\"max\": %.3f}},\n",
       r.solve_s_graph.size(), r.windowed_solves, r.full_solves, percentile(r.solve_s_graph, 0.5),
       percentile(r.solve_s_graph, 0.95), percentile(r.solve_s_graph, 1.0),
       percentile(r.solve_s_baseline, 0.5), percentile(r.solve_s_baseline, 0.95),
       percentile(r.solve_s_baseline, 1.0));
+  std::printf("  \"uncertainty_s\": {\"p50\": %.3f, \"p95\": %.3f, \"last\": %.3f}\n}\n",
+              percentile(r.uncertainty_s, 0.5), percentile(r.uncertainty_s, 0.95),
+              r.uncertainty_s.empty() ? 0.0 : r.uncertainty_s.back());
 }
 
 }  // namespace

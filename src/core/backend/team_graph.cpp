@@ -670,9 +670,10 @@ BackendSnapshot TeamGraph::optimize() {
   snapshot.solve_s = elapsed_s();
   snapshot.cut_short = snapshot.solved != BackendSnapshot::Solve::kNone &&
                        snapshot.solve_s >= params_.max_solve_time_s;
-  // Cut short: solved again at the next call (a full one stays due).
+  // Cut short: solved again at the next call, in the window. A full solve goes on from where it
+  // stopped at the next full_solve_period_s: one too large for max_solve_time_s repeated at
+  // every call would cost the time box at every call.
   solve_due_ = snapshot.cut_short;
-  full_due_ = full_due_ || (snapshot.cut_short && snapshot.solved == BackendSnapshot::Solve::kFull);
   return snapshot;
 }
 
@@ -718,15 +719,22 @@ std::vector<std::string> TeamGraph::save(const std::string& dir) const {
   return {graph, trajectory, odometry};
 }
 
+std::size_t TeamGraph::varianceStride() const {
+  const std::size_t nodes = std::max(last_graph_.poses.size(), graph_.poses.size());
+  return std::max(kVarianceAnchorEvery, (nodes + kVarianceNodes - 1) / kVarianceNodes);
+}
+
 std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
     const std::vector<KeyframeId>& ids) const {
   // The last optimised graph, loops weighted as the robust kernel left them (a loop the
   // switches accepted shrinks the uncertainty of the keyframes it closes), its chains thinned
-  // to these keyframes and the loops' ends.
+  // to these keyframes and every varianceStride()-th pose, which the loops' ends move to: a
+  // graph of at most ~kVarianceNodes poses, however long the mission.
   const bool optimised = last_own_count_ == graph_.poses.size();
   const PoseGraph& whole = optimised ? last_graph_ : graph_;
   std::vector<double> weights = optimised ? last_weights_ : std::vector<double>{};
   std::vector<bool> keep(whole.poses.size(), false);
+  for (std::size_t i = 0; i < keep.size(); i += varianceStride()) keep[i] = true;
   for (const KeyframeId id : ids) {
     const auto it = index_.find(id);
     if (it == index_.end()) return std::nullopt;
@@ -742,11 +750,12 @@ std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
 
 std::optional<std::vector<double>> TeamGraph::positionVariances(
     const std::vector<KeyframeId>& ids) const {
-  // Marginals at every kVarianceAnchorEvery-th keyframe and the last; between, each one's is
-  // the one before it plus its odometry step's position variance.
+  // Marginals at every varianceStride()-th keyframe and the last; between, each one's is the
+  // one before it plus its odometry step's position variance.
+  const std::size_t stride = varianceStride();
   std::vector<KeyframeId> anchors;
   for (std::size_t i = 0; i < ids.size(); ++i) {
-    if (i % kVarianceAnchorEvery == 0 || i + 1 == ids.size()) anchors.push_back(ids[i]);
+    if (i % stride == 0 || i + 1 == ids.size()) anchors.push_back(ids[i]);
   }
   const auto all = covariances(anchors);
   if (!all) return std::nullopt;

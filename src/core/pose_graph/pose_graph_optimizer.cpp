@@ -215,30 +215,51 @@ PoseGraph thinChains(const PoseGraph& graph, const std::vector<bool>& keep,
                      std::vector<int>* node_of, std::vector<double>* weights) {
   const auto steps = odometrySteps(graph);
   const auto n = graph.poses.size();
-  std::vector<bool> kept(n, false);
-  for (const auto& e : graph.edges) {
-    if (e.loop)
-      kept[static_cast<std::size_t>(e.from)] = kept[static_cast<std::size_t>(e.to)] = true;
-  }
   PoseGraph thin;
   thin.dimension = graph.dimension;
   node_of->assign(n, -1);
   for (std::size_t i = 0; i < n; ++i) {
     // A chain's ends stay too: where no step leads in or out.
     const bool end = !steps[i] || i == 0 || !steps[i - 1];
-    if (!(kept[i] || end || (i < keep.size() && keep[i]))) continue;
+    if (!(end || (i < keep.size() && keep[i]))) continue;
     (*node_of)[i] = static_cast<int>(thin.poses.size());
     thin.poses.push_back(graph.poses[i]);
   }
+  // The kept pose nearest each pose along its chain (the ends are kept, so the steps between
+  // them are unbroken).
+  std::vector<int> nearest(n, -1);
+  for (std::size_t i = 0, last = 0; i < n; ++i) {
+    if ((*node_of)[i] >= 0) last = i;
+    nearest[i] = static_cast<int>(last);
+  }
+  for (std::size_t i = n, next = n; i-- > 0;) {
+    if ((*node_of)[i] >= 0) next = i;
+    if (next < n && next - i < i - static_cast<std::size_t>(nearest[i])) {
+      nearest[i] = static_cast<int>(next);
+    }
+  }
+  // A loop's end moves to its nearest kept pose: as that pose times the end's offset from it,
+  // the chain between them adding its covariance to the loop's (to first order).
+  const auto snap = [&](int i, Pose3& offset, Eigen::MatrixXd& covariance) {
+    const int at = nearest[static_cast<std::size_t>(i)];
+    if (at == i) return (*node_of)[static_cast<std::size_t>(i)];
+    const auto chain = composeChain(graph, steps, std::min(at, i), std::max(at, i));
+    offset = graph.poses[static_cast<std::size_t>(at)].inverse() *
+             graph.poses[static_cast<std::size_t>(i)] * offset;
+    covariance += chain->second;
+    return (*node_of)[static_cast<std::size_t>(at)];
+  };
   std::vector<double> thin_weights;
   for (std::size_t k = 0; k < graph.edges.size(); ++k) {
     const PoseGraphEdge& e = graph.edges[k];
     const bool step = steps[static_cast<std::size_t>(e.from)] == &e;
     if (step) continue;  // composed below
     PoseGraphEdge mapped = e;
-    mapped.from = (*node_of)[static_cast<std::size_t>(e.from)];
-    mapped.to = (*node_of)[static_cast<std::size_t>(e.to)];
-    if (mapped.from < 0 || mapped.to < 0) continue;  // another odometry edge to a dropped pose
+    Eigen::MatrixXd covariance = e.information.inverse();
+    mapped.from = snap(e.from, mapped.from_offset, covariance);
+    mapped.to = snap(e.to, mapped.to_offset, covariance);
+    if (mapped.from == mapped.to) continue;  // both ends moved to one pose: nothing to close
+    mapped.information = covariance.inverse();
     thin.edges.push_back(mapped);
     thin_weights.push_back(k < weights->size() ? (*weights)[k] : 1.0);
   }

@@ -155,15 +155,20 @@ class TeamGraph {
 
   /// Marginal covariances of the given own keyframes at the last optimisation (the whole graph,
   /// teammates' parts and every accepted closure included), computed on the graph thinned to
-  /// them and the loops' keyframes (pose_graph::thinChains).
+  /// them and every varianceStride()-th pose (pose_graph::thinChains).
   std::optional<std::vector<Eigen::MatrixXd>> covariances(const std::vector<KeyframeId>& ids) const;
   /// CCIR's u_k of the given keyframes (in trajectory order): the geometric mean of the
   /// eigenvalues of each one's marginal position covariance, m^2 (monotone in their product, the
   /// thesis's u, and still a variance: the product of three ~1e-3 m^2 variances underflows the
-  /// scale of everything else). Marginals at every kVarianceAnchorEvery-th and the last; the
+  /// scale of everything else). Marginals at every varianceStride()-th and the last; the
   /// others carry the one before them plus their odometry step's position variance.
   std::optional<std::vector<double>> positionVariances(const std::vector<KeyframeId>& ids) const;
+  /// Every how many poses the marginals' thinned graph keeps one: kVarianceAnchorEvery, or
+  /// more on a graph of over kVarianceNodes * kVarianceAnchorEvery poses, so that their cost
+  /// stays flat.
+  std::size_t varianceStride() const;
   static constexpr std::size_t kVarianceAnchorEvery = 10;
+  static constexpr std::size_t kVarianceNodes = 300;
 
  private:
   std::string robot_;

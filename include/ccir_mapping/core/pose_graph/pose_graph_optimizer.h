@@ -64,13 +64,15 @@ struct OptimizationResult {
 /// ICRA 2015, within one robot). Loops without an odometry chain keep their information.
 std::vector<Information> chainInflatedInformation(const PoseGraph& graph);
 
-/// The graph with its odometry chains thinned: the poses `keep` says, the loops' and each
-/// chain's ends stay, and the odometry steps between consecutive ones are composed into one
-/// edge (its covariance propagated along them). The marginals of the poses kept are those of
-/// the whole graph to first order (eliminating a chain's inner poses is exact for a linear
-/// chain), at the cost of a graph of loops rather than of poses. `node_of`: each pose's index
-/// in the result, or -1; `weights` (per edge, as marginalCovariances takes them; missing
-/// ones 1) become the result's.
+/// The graph with its odometry chains thinned: the poses `keep` says and each chain's ends
+/// stay, and the odometry steps between consecutive ones are composed into one edge (its
+/// covariance propagated along them). Every other edge's ends move to their nearest kept pose
+/// along the chain, as that pose times a constant offset, the chain between them adding its
+/// covariance to the edge's. Keeping the loops' ends, the marginals of the poses kept are those
+/// of the whole graph to first order (eliminating a chain's inner poses is exact for a linear
+/// chain); keeping fewer, the graph's size is the caller's choice, and a loop weighs a little
+/// less. `node_of`: each pose's index in the result, or -1; `weights` (per edge, as
+/// marginalCovariances takes them; missing ones 1) become the result's.
 PoseGraph thinChains(const PoseGraph& graph, const std::vector<bool>& keep,
                      std::vector<int>* node_of, std::vector<double>* weights);
 
