@@ -220,7 +220,7 @@ void load(ParamReader& reader, BackendSettings& config) {
   reader.read("optimize_period_s", p.optimize_period_s);
   reader.read("solve_window_keyframes", p.solve_window_keyframes);
   reader.read("full_solve_period_s", p.full_solve_period_s);
-  reader.read("full_solve_loop_error_m", p.full_solve_loop_error_m);
+  reader.read("revisit_loop_error_m", p.revisit_loop_error_m);
   reader.read("uncertainty_period_s", p.uncertainty_period_s);
   reader.read("max_solve_time_s", p.max_solve_time_s);
   reader.read("max_iterations", p.max_iterations);

@@ -16,7 +16,7 @@ std::vector<std::string> BackendParams::validate() const {
   check.inRange("optimize_period_s", optimize_period_s, 0.01, 3600.0);
   check.inRange("solve_window_keyframes", solve_window_keyframes, 0, 1000000);
   check.inRange("full_solve_period_s", full_solve_period_s, 0.0, 86400.0);
-  check.inRange("full_solve_loop_error_m", full_solve_loop_error_m, 0.0, 1e6);
+  check.inRange("revisit_loop_error_m", revisit_loop_error_m, 0.0, 1e6);
   check.inRange("uncertainty_period_s", uncertainty_period_s, 0.0, 3600.0);
   check.inRange("max_solve_time_s", max_solve_time_s, 0.001, 60.0);
   check.inRange("max_iterations", max_iterations, 1, 10000);

@@ -231,17 +231,34 @@ TeamGraph::Assembled TeamGraph::assemble() const {
   return a;
 }
 
-std::optional<TeamGraph::Window> TeamGraph::window(const Assembled& a) const {
+TeamGraph::Window TeamGraph::window(const Assembled& a) const {
   const auto size = static_cast<std::size_t>(params_.solve_window_keyframes);
   const std::size_t n = a.graph.poses.size();
   Window w{std::vector<bool>(n, true), std::vector<int>(n, -1)};
-  // Own keyframes: the newest, and all placed by odometry since the last solve; the rest held.
-  const std::size_t first =
+  // Own keyframes: the newest, and all placed by odometry since the last solve; the rest held,
+  // but for a new own loop with both keyframes held or that the estimate misses by a revisit's
+  // drift: every own keyframe back to its older end is freed, where that drift grew (the part
+  // before it is where the older end's earlier loops hold it).
+  std::size_t first =
       std::min(a.own_count - std::min(a.own_count, size), std::min(solved_own_, a.own_count));
+  const auto& poses = a.graph.poses;
+  for (std::size_t k = 0; k < a.graph.edges.size(); ++k) {
+    const PoseGraphEdge& e = a.graph.edges[k];
+    if (!e.loop || a.edge_links[k] || loop_states_.count(a.edge_keys[k])) continue;
+    const auto older = static_cast<std::size_t>(std::min(e.from, e.to));
+    const auto newer = static_cast<std::size_t>(std::max(e.from, e.to));
+    // How far the estimate misses the loop where its scan's walls are.
+    const Pose3 miss = e.measurement.inverse() * poses[static_cast<std::size_t>(e.from)].inverse() *
+                       poses[static_cast<std::size_t>(e.to)];
+    const double miss_m =
+        miss.translation().norm() + kLoopMissRadiusM * Eigen::AngleAxisd(miss.linear()).angle();
+    if (newer < first || miss_m > params_.revisit_loop_error_m) first = std::min(first, older);
+  }
   for (std::size_t i = 0; i < first; ++i) w.variable[i] = false;
   w.variable[0] = false;  // the gauge
   // Each teammate's (consecutive nodes): the newest and those placed since the last solve free,
-  // the rest in rigid blocks of kBlockKeyframes, each moving with its newest keyframe.
+  // the rest in rigid blocks of kBlockKeyframes, each moving with its newest keyframe. A
+  // teammate's keyframe always moves, so its inter-robot loops need nothing more.
   for (std::size_t begin = a.own_count; begin < n;) {
     const std::string& peer = a.nodes[begin].first;
     std::size_t end = begin;
@@ -260,25 +277,6 @@ std::optional<TeamGraph::Window> TeamGraph::window(const Assembled& a) const {
     }
     begin = end;
   }
-  // A keyframe moves in the solve when free or in a teammate's block (rigidly): a teammate's
-  // always does, so an inter-robot loop never needs a full solve. An own loop does when both its
-  // keyframes are held, or when the estimate misses it by a revisit's drift.
-  const auto moves = [&](int i) {
-    return w.variable[static_cast<std::size_t>(i)] || w.block[static_cast<std::size_t>(i)] >= 0;
-  };
-  const auto& poses = a.graph.poses;
-  for (std::size_t k = 0; k < a.graph.edges.size(); ++k) {
-    const PoseGraphEdge& e = a.graph.edges[k];
-    if (!e.loop || loop_states_.count(a.edge_keys[k])) continue;
-    if (!moves(e.from) && !moves(e.to)) return std::nullopt;
-    if (a.edge_links[k]) continue;
-    // How far the estimate misses the loop where its scan's walls are.
-    const Pose3 miss = e.measurement.inverse() * poses[static_cast<std::size_t>(e.from)].inverse() *
-                       poses[static_cast<std::size_t>(e.to)];
-    const double miss_m =
-        miss.translation().norm() + kLoopMissRadiusM * Eigen::AngleAxisd(miss.linear()).angle();
-    if (miss_m > params_.full_solve_loop_error_m) return std::nullopt;
-  }
   return w;
 }
 
@@ -287,7 +285,7 @@ int TeamGraph::solve(Assembled& a, bool full, double max_time_s, BackendSnapshot
   const std::size_t n = graph.poses.size();
   if (n < 2) return 0;
   std::optional<Window> w;
-  if (!full && params_.solve_window_keyframes > 0) w = window(a);
+  if (!full && params_.solve_window_keyframes > 0) w.emplace(window(a));
   const bool whole = !w;
   snapshot.solved = whole ? BackendSnapshot::Solve::kFull : BackendSnapshot::Solve::kWindow;
   if (whole) {

@@ -35,16 +35,16 @@ struct BackendParams {
   double optimize_period_s = 1.0;
   /// Between full solves, a solve frees each robot's newest this many keyframes (and those
   /// placed since the last solve); this robot's older ones are held, each teammate's older ones
-  /// move as one rigid block, and every loop's switch resumes from the last solve: a new loop's
-  /// correction goes into the recent drift. An own loop with neither keyframe free or that
-  /// misses by more than full_solve_loop_error_m, a teammate joining or placed again, and
+  /// move in rigid blocks, and every loop's switch resumes from the last solve: a new loop's
+  /// correction goes into the recent drift. A teammate joining or placed again and
   /// full_solve_period_s make the solve a full one. 0: every solve is full.
   int solve_window_keyframes = 100;
-  /// A new own loop the current estimate misses by more than this (its translation error plus
-  /// its rotation error times 10 m, where its scan's walls are) makes the solve a full one: a
-  /// window would bend only its newest keyframes to a revisit's whole drift (a teammate's
-  /// keyframes and blocks take an inter-robot loop's).
-  double full_solve_loop_error_m = 1.0;
+  /// A new own loop with neither keyframe free, or that the current estimate misses by more
+  /// than this (its translation error plus its rotation error times 10 m, where its scan's walls
+  /// are), frees every own keyframe back to its older end: a window would bend only its newest
+  /// keyframes to a revisit's whole drift (a teammate's keyframes and blocks take an
+  /// inter-robot loop's).
+  double revisit_loop_error_m = 1.0;
   /// Mission time between full solves (every pose and switch free, switches from their prior),
   /// the reference the windowed ones drift from; only when a windowed solve happened since.
   double full_solve_period_s = 30.0;

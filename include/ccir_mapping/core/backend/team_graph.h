@@ -227,13 +227,14 @@ class TeamGraph {
   /// robot's is held; the rest of each teammate's moves in rigid blocks of consecutive keyframes,
   /// each by one pose, its newest keyframe's (`block`: that node for each keyframe of a block,
   /// else -1). Why not held: a teammate's older keyframes must follow this robot's corrections,
-  /// or its loops pull the window towards a stale placement. nullopt when a new own loop has
-  /// neither keyframe free or the estimate misses it by more than full_solve_loop_error_m.
+  /// or its loops pull the window towards a stale placement. A new own loop with neither
+  /// keyframe free, or that the estimate misses by more than revisit_loop_error_m, frees every
+  /// own keyframe back to its older end.
   struct Window {
     std::vector<bool> variable;
     std::vector<int> block;
   };
-  std::optional<Window> window(const Assembled& a) const;
+  Window window(const Assembled& a) const;
   /// Each link's EM (or re-check) within kEmTimeShare of max_solve_time_s: the gate admits
   /// its inliers, a teammate whose transform is found joins, a disagreement is resolved (see
   /// optimize()); the team estimates go into the snapshot, the EM's closures of teammates kept
