@@ -578,22 +578,28 @@ void TeamGraph::judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_
       const Pose3 delta = refinedTransform(peer).inverse() * found.transform;
       const double shift_m = delta.translation().norm();
       const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180 / M_PI;
-      if (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg) {
-        // The hypothesis with clearly more agreeing closures wins, by the EM's own margin.
+      // The hypothesis with clearly more agreeing closures wins, by the EM's own margin, among
+      // the closures both have judged: those since the last solve only the EM has seen yet
+      // (counted, closures arriving between solves would outvote the graph at every solve).
+      int em_inliers = 0;
+      for (std::size_t k = 0; k < list.size(); ++k) {
+        em_inliers += found.inliers[k] && loop_states_.count(candidates.keys[k]);
+      }
+      if (em_inliers > 0 &&
+          (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg)) {
         const int accepted = static_cast<int>(gate_.keptCount(link));
         char text[320];
-        if (accepted + params_.team_inlier_margin >= found.inlier_count) {
+        if (accepted + params_.team_inlier_margin >= em_inliers) {
           std::snprintf(text, sizeof text,
                         "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
-                        "the graph's: its switches accept %d closures, the EM %d",
-                        peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count);
+                        "the graph's: its switches accept %d closures, the EM %d of them",
+                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers);
         } else {
           std::snprintf(text, sizeof text,
                         "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
-                        "accepts only %d closures, the EM %d: %s placed again with the EM "
-                        "transform",
-                        peer.c_str(), shift_m, turn_deg, accepted, found.inlier_count,
-                        peer.c_str());
+                        "accepts only %d closures, the EM %d of them: %s placed again with the "
+                        "EM transform",
+                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
           joined->second = {found.transform, {}, {}};
           gate_.forgetKept(link);
           full_due_ = true;
