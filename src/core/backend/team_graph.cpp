@@ -588,12 +588,24 @@ void TeamGraph::judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_
       if (em_inliers > 0 &&
           (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg)) {
         const int accepted = static_cast<int>(gate_.keptCount(link));
+        // Placed with this transform already, the graph moved away from it: placing it there
+        // again would only repeat that (and a full solve) at every period.
+        const Pose3 since = joined->second.transform.inverse() * found.transform;
+        const bool tried =
+            since.translation().norm() <= params_.team_disagreement_m &&
+            Eigen::AngleAxisd(since.linear()).angle() * 180 / M_PI <= params_.team_disagreement_deg;
         char text[320];
         if (accepted + params_.team_inlier_margin >= em_inliers) {
           std::snprintf(text, sizeof text,
                         "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
                         "the graph's: its switches accept %d closures, the EM %d of them",
                         peer.c_str(), shift_m, turn_deg, accepted, em_inliers);
+        } else if (tried) {
+          std::snprintf(text, sizeof text,
+                        "the EM transform to %s is %.2f m / %.1f deg from the graph's, which "
+                        "accepts only %d closures, the EM %d of them; keeping the graph's: %s "
+                        "was placed with that transform already",
+                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
         } else {
           std::snprintf(text, sizeof text,
                         "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
