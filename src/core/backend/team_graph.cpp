@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include "ccir_mapping/core/backend/team_disagreement.h"
 #include "ccir_mapping/core/common/param_check.h"
 #include "ccir_mapping/core/pose_graph/g2o_io.h"
 
@@ -575,47 +576,39 @@ void TeamGraph::judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_
           {"team graph", peer + " joins the graph: " + std::to_string(found.inlier_count) + " of " +
                              std::to_string(list.size()) + " closures agree"});
     } else if (joined != joined_.end() && found.found) {
-      const Pose3 delta = refinedTransform(peer).inverse() * found.transform;
-      const double shift_m = delta.translation().norm();
-      const double turn_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180 / M_PI;
-      // The hypothesis with clearly more agreeing closures wins, by the EM's own margin, among
-      // the closures both have judged: those since the last solve only the EM has seen yet
-      // (counted, closures arriving between solves would outvote the graph at every solve).
-      int em_inliers = 0;
+      int em_inliers = 0;  // among the closures the graph has judged too
       for (std::size_t k = 0; k < list.size(); ++k) {
         em_inliers += found.inliers[k] && loop_states_.count(candidates.keys[k]);
       }
-      if (em_inliers > 0 &&
-          (shift_m > params_.team_disagreement_m || turn_deg > params_.team_disagreement_deg)) {
-        const int accepted = static_cast<int>(gate_.keptCount(link));
-        // Placed with this transform already, the graph moved away from it: placing it there
-        // again would only repeat that (and a full solve) at every period.
-        const Pose3 since = joined->second.transform.inverse() * found.transform;
-        const bool tried =
-            since.translation().norm() <= params_.team_disagreement_m &&
-            Eigen::AngleAxisd(since.linear()).angle() * 180 / M_PI <= params_.team_disagreement_deg;
-        char text[320];
-        if (accepted + params_.team_inlier_margin >= em_inliers) {
-          std::snprintf(text, sizeof text,
-                        "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
-                        "the graph's: its switches accept %d closures, the EM %d of them",
-                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers);
-        } else if (tried) {
-          std::snprintf(text, sizeof text,
-                        "the EM transform to %s is %.2f m / %.1f deg from the graph's, which "
-                        "accepts only %d closures, the EM %d of them; keeping the graph's: %s "
-                        "was placed with that transform already",
-                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
-        } else {
-          std::snprintf(text, sizeof text,
-                        "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
-                        "accepts only %d closures, the EM %d of them: %s placed again with the "
-                        "EM transform",
-                        peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
-          joined->second = {found.transform, {}, {}};
-          gate_.forgetKept(link);
-          full_due_ = true;
-        }
+      const int accepted = static_cast<int>(gate_.keptCount(link));
+      const TeamDisagreement judged =
+          judgeDisagreement(refinedTransform(peer), joined->second.transform, found.transform,
+                            accepted, em_inliers, params_);
+      using Verdict = TeamDisagreement::Verdict;
+      char text[320];
+      const double shift_m = judged.shift_m, turn_deg = judged.turn_deg;
+      if (judged.verdict == Verdict::kKeepGraph) {
+        std::snprintf(text, sizeof text,
+                      "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
+                      "the graph's: its switches accept %d closures, the EM %d of them",
+                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers);
+      } else if (judged.verdict == Verdict::kTriedBefore) {
+        std::snprintf(text, sizeof text,
+                      "the EM transform to %s is %.2f m / %.1f deg from the graph's, which "
+                      "accepts only %d closures, the EM %d of them; keeping the graph's: %s "
+                      "was placed with that transform already",
+                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
+      } else if (judged.verdict == Verdict::kPlaceAgain) {
+        std::snprintf(text, sizeof text,
+                      "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
+                      "accepts only %d closures, the EM %d of them: %s placed again with the "
+                      "EM transform",
+                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
+        joined->second = {found.transform, {}, {}};
+        gate_.forgetKept(link);
+        full_due_ = true;
+      }
+      if (judged.verdict != Verdict::kAgree) {
         snapshot.notices.push_back({"team disagreement", text});
       }
     }

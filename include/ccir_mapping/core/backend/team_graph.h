@@ -128,11 +128,9 @@ class TeamGraph {
   /// Without one, new keyframes are only placed by odometry. A solve is windowed
   /// (solve_window_keyframes) or full (full_solve_period_s, see BackendParams). A teammate whose
   /// EM transform is found joins the graph (and is optimised at once). Once joined, a later EM
-  /// transform farther than team_disagreement_m / _deg from the graph's is a disagreement,
-  /// resolved by the EM's own rule: the graph's transform is kept while its switches accept at
-  /// least the EM's inlier count less team_inlier_margin closures with that teammate; otherwise
-  /// the teammate's part is placed again from the EM transform and re-optimised. Either way a
-  /// notice says which.
+  /// transform that disagrees with the graph's is judged by judgeDisagreement
+  /// (team_disagreement.h): the graph's is kept, or the teammate's part is placed again from the
+  /// EM transform and re-optimised. Either way a notice says which.
   BackendSnapshot optimize();
   static constexpr double kEmTimeShare = 0.4;
 
