@@ -743,7 +743,8 @@ std::optional<std::vector<Eigen::MatrixXd>> TeamGraph::covariances(
   const PoseGraph& whole = optimised ? last_graph_ : graph_;
   std::vector<double> weights = optimised ? last_weights_ : std::vector<double>{};
   std::vector<bool> keep(whole.poses.size(), false);
-  for (std::size_t i = 0; i < keep.size(); i += varianceStride()) keep[i] = true;
+  const std::size_t stride = varianceStride();
+  for (std::size_t i = 0; i < keep.size(); i += stride) keep[i] = true;
   for (const KeyframeId id : ids) {
     const auto it = index_.find(id);
     if (it == index_.end()) return std::nullopt;

@@ -47,12 +47,49 @@ double OccupancyMap::boxKnownVolumeM3() const {
 
 octomap::OcTreeNode* OccupancyMap::finestLeaf(const octomap::OcTreeKey& key) {
   // OcTreeBaseImpl::search's descent, except that a pruned leaf above the finest depth (it
-  // stands for many voxels) counts as not found: updateNode must split it.
-  octomap::OcTreeNode* node = tree_.getRoot();
-  for (int depth = static_cast<int>(tree_.getTreeDepth()) - 1; node && depth >= 0; --depth) {
-    const unsigned child = octomap::computeChildIdx(key, depth);
-    node = tree_.nodeChildExists(node, child) ? tree_.getNodeChild(node, child) : nullptr;
+  // stands for many voxels) counts as not found: updateNode must split it. It starts where the
+  // last key's path parts from this one's: keys come in the tree's order, so that is mostly a
+  // level or two above the leaf. Nodes are added, never moved; what deletes them (forget(), or
+  // a prune that shrinks the tree) ends the path.
+  const int depth = static_cast<int>(tree_.getTreeDepth());
+  const std::uint64_t code = KeyBricks::morton(key);
+  octomap::OcTreeNode* const root = tree_.getRoot();
+  int from = 0;
+  if (path_[0] == root && root && tree_.size() >= path_tree_size_) {
+    const std::uint64_t differ = code ^ path_code_;
+    // Key bit b picks the child at depth - 1 - b; Morton bits 3b..3b + 2 hold it.
+    const int shared = differ ? depth - 1 - (63 - __builtin_clzll(differ)) / 3 : depth;
+    from = std::min(shared, path_depth_);
   }
+  path_[0] = root;
+  path_code_ = code;
+  path_depth_ = from;
+  octomap::OcTreeNode* node = path_[static_cast<std::size_t>(from)];
+  for (int d = from; node && d < depth; ++d) {
+    const unsigned child = octomap::computeChildIdx(key, depth - 1 - d);
+    if (!tree_.nodeChildExists(node, child)) {
+      node = nullptr;
+      break;
+    }
+    node = tree_.getNodeChild(node, child);
+    path_[static_cast<std::size_t>(d + 1)] = node;
+    path_depth_ = d + 1;
+  }
+  path_tree_size_ = tree_.size();
+  return node;
+}
+
+octomap::OcTreeNode* OccupancyMap::newLeaf(const octomap::OcTreeKey& key) {
+  if (path_[0] != tree_.getRoot() || path_code_ != KeyBricks::morton(key)) return nullptr;
+  octomap::OcTreeNode* node = path_[static_cast<std::size_t>(path_depth_)];
+  if (!node || !tree_.nodeHasChildren(node)) return nullptr;  // a pruned leaf, or no tree
+  const int depth = static_cast<int>(tree_.getTreeDepth());
+  for (int d = path_depth_; d < depth; ++d) {
+    node = tree_.createNodeChild(node, octomap::computeChildIdx(key, depth - 1 - d));
+    path_[static_cast<std::size_t>(d + 1)] = node;
+  }
+  path_depth_ = depth;
+  path_tree_size_ = tree_.size();
   return node;
 }
 
@@ -67,7 +104,15 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
     if (in_box) box_entropy_bits_ += entropy_(leaf->getLogOdds()) - h_before;
     return;
   }
-  if (!in_box) {
+  if (octomap::OcTreeNode* fresh = newLeaf(key)) {
+    tree_.updateNodeLogOdds(fresh, hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
+    if (in_box) {
+      box_known_voxels_ += 1.0;
+      box_entropy_bits_ += entropy_(fresh->getLogOdds()) - 1.0;
+    }
+    return;
+  }
+  if (!in_box) {  // inside a pruned leaf (updateNode splits it), or no tree yet
     tree_.updateNode(key, hit, /*lazy_eval=*/true);
     return;
   }
@@ -79,6 +124,7 @@ void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
 }
 
 void OccupancyMap::forget(const octomap::OcTreeKey& key) {
+  path_[0] = nullptr;  // finestLeaf's path may lose nodes
   // OcTreeBaseImpl::deleteNode deletes an inner node its last child left with the child array
   // still allocated, which OctoMap 1.9's node destructor asserts against: the path is walked
   // here, and an emptied node's array released (expandNode, then pruneNode) before it goes.
@@ -122,9 +168,10 @@ void OccupancyMap::assign(
     }
     const float value =
         std::clamp(*log_odds, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
+    if (!leaf) leaf = newLeaf(key);
     if (leaf) {
       leaf->setLogOdds(value);
-    } else {
+    } else {  // inside a pruned leaf (setNodeValue splits it), or no tree yet
       tree_.setNodeValue(key, value, /*lazy_eval=*/true);
     }
     if (in_box) {
@@ -135,8 +182,8 @@ void OccupancyMap::assign(
 }
 
 int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,
-                          const Eigen::Vector3d& origin, FlatKeySet& free_cells,
-                          FlatKeySet& occupied_cells) const {
+                          const Eigen::Vector3d& origin, KeyBricks& free_cells,
+                          KeyBricks& occupied_cells) const {
   if (!origin.allFinite()) throw std::invalid_argument("computeUpdate: non-finite sensor origin");
   // OccupancyOcTreeBase::computeUpdate's rule, into flat sets: a beam frees the cells it
   // crosses up to max_insert_range_m and occupies its endpoint if within it; an endpoint wins
@@ -166,13 +213,11 @@ int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,
 ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& points,
                                        const Eigen::Vector3d& origin) const {
   ScanUpdate update;
-  FlatKeySet free_cells(points.size() * 16);
-  FlatKeySet occupied_cells(points.size());
+  KeyBricks free_cells;
+  KeyBricks occupied_cells;
   update.dropped_points = collect(points, origin, free_cells, occupied_cells);
   // In the tree's order: reproducible, and what insert() walks fastest.
-  for (const auto& key : free_cells.inTreeOrder()) {
-    if (!occupied_cells.contains(key)) update.free.push_back(key);
-  }
+  update.free = free_cells.inTreeOrder(&occupied_cells);
   update.occupied = occupied_cells.inTreeOrder();
   return update;
 }
@@ -413,6 +458,7 @@ void OccupancyMap::load(const std::string& path) {
   // Inserting updates finest voxels only (finestLeaf): a pruned file is expanded.
   read.expand();
   tree_.swapContent(read);
+  path_[0] = nullptr;
   const Box box{params_.entropyBoxMin(), params_.entropyBoxMax()};
   box_entropy_bits_ = entropyBits(box);
   box_known_voxels_ = knownVolumeM3(box) / std::pow(params_.resolution_m, 3);

@@ -243,6 +243,7 @@ PoseGraph thinChains(const PoseGraph& graph, const std::vector<bool>& keep,
   const auto snap = [&](int i, Pose3& offset, Eigen::MatrixXd& covariance) {
     const int at = nearest[static_cast<std::size_t>(i)];
     if (at == i) return (*node_of)[static_cast<std::size_t>(i)];
+    // Unbroken: a break's both sides are chain ends, kept, and nearer than `at`.
     const auto chain = composeChain(graph, steps, std::min(at, i), std::max(at, i));
     offset = graph.poses[static_cast<std::size_t>(at)].inverse() *
              graph.poses[static_cast<std::size_t>(i)] * offset;

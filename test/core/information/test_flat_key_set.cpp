@@ -33,34 +33,5 @@ TEST(FlatKeySet, HoldsEachKeyOnceThroughGrowth) {
   EXPECT_FALSE(set.contains(octomap::OcTreeKey(65535, 65535, 65535)));
 }
 
-/// Depth-first order of the octree: the first depth (from the root) at which two keys part
-/// decides, by OctoMap's child index there.
-bool beforeInTree(const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
-  for (int depth = 15; depth >= 0; --depth) {
-    const auto ca = octomap::computeChildIdx(a, depth);
-    const auto cb = octomap::computeChildIdx(b, depth);
-    if (ca != cb) return ca < cb;
-  }
-  return false;
-}
-
-TEST(FlatKeySet, ListsEveryKeyOnceInTheTreesDepthFirstOrder) {
-  FlatKeySet set;
-  std::set<std::tuple<int, int, int>> reference;
-  std::mt19937 rng(5);
-  std::uniform_int_distribution<int> coordinate(0, 65535);  // the whole key range
-  for (int i = 0; i < 5000; ++i) {
-    const octomap::OcTreeKey key(coordinate(rng), coordinate(rng), coordinate(rng));
-    set.insert(key);
-    reference.emplace(key[0], key[1], key[2]);
-  }
-  const auto keys = set.inTreeOrder();
-  ASSERT_EQ(keys.size(), reference.size());
-  for (std::size_t i = 1; i < keys.size(); ++i) {
-    ASSERT_TRUE(beforeInTree(keys[i - 1], keys[i])) << "at " << i;
-  }
-  for (const auto& key : keys) EXPECT_TRUE(reference.count({key[0], key[1], key[2]}));
-}
-
 }  // namespace
 }  // namespace ccir_mapping::core::information

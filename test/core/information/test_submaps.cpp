@@ -4,8 +4,12 @@
 // scans again at the new poses within one voxel.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
+#include <random>
 #include <set>
 #include <tuple>
 
@@ -72,6 +76,64 @@ TEST(OccupancyMap, AssignSetsOrForgetsVoxelsWithTheEntropyBoxFollowing) {
   EXPECT_EQ(map.tree().search(forgotten), nullptr);
   EXPECT_NEAR(map.tree().search(unknown)->getLogOdds(), map.tree().getClampingThresMinLog(), 1e-6)
       << "clamped";
+  const Box box{params().entropyBoxMin(), params().entropyBoxMax()};
+  EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(box), 1e-9 * map.boxEntropyBits());
+  EXPECT_NEAR(map.boxKnownVolumeM3(), map.knownVolumeM3(box), 1e-9);
+}
+
+TEST(OccupancyMap, EveryVoxelHoldsWhatWasLastAssignedOrInsertedInWhateverOrder) {
+  // Updates walk down from where the last key's path parted (finestLeaf): keys out of the
+  // tree's order, voxels forgotten between (nodes deleted), and new nodes must not lead them
+  // astray. A plain map of key -> log-odds is the reference.
+  OccupancyMap map(params());
+  std::map<std::tuple<int, int, int>, float> reference;
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> near(32760, 32800);  // a few bricks: paths shared often
+  std::uniform_real_distribution<float> value(-4.0F, 4.0F);
+  const float hit = map.tree().getProbHitLog();
+  const float lo = map.tree().getClampingThresMinLog();
+  const float hi = map.tree().getClampingThresMaxLog();
+  for (int round = 0; round < 40; ++round) {
+    std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> assigned;
+    ScanUpdate hits;
+    for (int i = 0; i < 200; ++i) {
+      const octomap::OcTreeKey key(near(rng), near(rng), near(rng));
+      const std::tuple<int, int, int> at{key[0], key[1], key[2]};
+      if (i % 3 == 0) {
+        hits.occupied.push_back(key);
+        continue;
+      }
+      const std::optional<float> v = i % 5 == 0 ? std::nullopt : std::optional<float>(value(rng));
+      assigned.emplace_back(key, v);
+    }
+    map.assign(assigned);
+    for (const auto& [key, v] : assigned) {
+      if (v) {
+        reference[{key[0], key[1], key[2]}] = std::clamp(*v, lo, hi);
+      } else {
+        reference.erase({key[0], key[1], key[2]});
+      }
+    }
+    std::sort(hits.occupied.begin(), hits.occupied.end(), [](const auto& a, const auto& b) {
+      return a[0] != b[0] ? a[0] < b[0] : a[1] < b[1];
+    });
+    hits.occupied.erase(std::unique(hits.occupied.begin(), hits.occupied.end()),
+                        hits.occupied.end());
+    map.insert(hits);
+    for (const auto& key : hits.occupied) {
+      auto [it, fresh] = reference.try_emplace({key[0], key[1], key[2]}, 0.0F);
+      it->second = std::clamp(it->second + hit, lo, hi);
+    }
+  }
+  std::size_t leaves = 0;
+  for (auto it = map.tree().begin_leafs(); it != map.tree().end_leafs(); ++it) ++leaves;
+  EXPECT_EQ(leaves, reference.size());
+  for (const auto& [at, log_odds] : reference) {
+    const auto* node =
+        map.tree().search(octomap::OcTreeKey(std::get<0>(at), std::get<1>(at), std::get<2>(at)));
+    ASSERT_NE(node, nullptr);
+    ASSERT_NEAR(node->getLogOdds(), log_odds, 1e-5);
+  }
   const Box box{params().entropyBoxMin(), params().entropyBoxMax()};
   EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(box), 1e-9 * map.boxEntropyBits());
   EXPECT_NEAR(map.boxKnownVolumeM3(), map.knownVolumeM3(box), 1e-9);

@@ -1,8 +1,8 @@
-// A set of OctoMap voxel keys in one flat array (open addressing, linear probing). Inserting a
-// scan visits ~1 M ray cells of which ~150 k are distinct; octomap::KeySet (a node-based
-// unordered_set) allocates and frees a node per distinct key, which took a third of a scan's
-// insertion. Written by hand: neither OctoMap nor the Boost of Debian bookworm (1.74, before
-// unordered_flat_set) has one.
+// A set of OctoMap voxel keys in one flat array (open addressing, linear probing): the voxels a
+// submap move recomputes (SubmapSet::apply), scattered over the map where KeyBricks, built for
+// the rays of a scan, would hold a brick per few keys. octomap::KeySet (a node-based
+// unordered_set) allocates and frees a node per key. Written by hand: neither OctoMap nor the
+// Boost of Debian bookworm (1.74, before unordered_flat_set) has one.
 #pragma once
 
 #include <algorithm>
@@ -32,22 +32,6 @@ class FlatKeySet {
     }
   }
   std::size_t size() const { return size_; }
-
-  /// The keys in the octree's depth-first order (Morton order of x, y, z as OctoMap numbers its
-  /// children), so that updating them one after the other walks the tree's memory in order:
-  /// in hash order, inserting a scan took twice as long.
-  std::vector<octomap::OcTreeKey> inTreeOrder() const {
-    std::vector<std::uint64_t> codes;
-    codes.reserve(size_);
-    for (const std::uint64_t packed : slots_) {
-      if (packed != kEmpty) codes.push_back(morton(unpack(packed)));
-    }
-    sortCodes(codes);
-    std::vector<octomap::OcTreeKey> keys;
-    keys.reserve(codes.size());
-    for (const std::uint64_t code : codes) keys.push_back(fromMorton(code));
-    return keys;
-  }
 
   /// Calls f(key) for every key, in no particular order.
   template <class F>
@@ -83,31 +67,6 @@ class FlatKeySet {
  private:
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // not a 48-bit key
 
-  /// Bit i of x, y and z goes to bits 3i, 3i + 1 and 3i + 2 (computeChildIdx's order).
-  static std::uint64_t morton(const octomap::OcTreeKey& k) {
-    return spread3(k[0]) | spread3(k[1]) << 1 | spread3(k[2]) << 2;
-  }
-  static std::uint64_t spread3(std::uint64_t v) {
-    v &= 0xFFFF;
-    v = (v | v << 16) & 0x0000FF0000FFULL;
-    v = (v | v << 8) & 0x00F00F00F00FULL;
-    v = (v | v << 4) & 0x0C30C30C30C3ULL;
-    v = (v | v << 2) & 0x249249249249ULL;
-    return v;
-  }
-  static std::uint64_t compact3(std::uint64_t v) {
-    v &= 0x249249249249ULL;
-    v = (v | v >> 2) & 0x0C30C30C30C3ULL;
-    v = (v | v >> 4) & 0x00F00F00F00FULL;
-    v = (v | v >> 8) & 0x0000FF0000FFULL;
-    v = (v | v >> 16) & 0xFFFF;
-    return v;
-  }
-  static octomap::OcTreeKey fromMorton(std::uint64_t code) {
-    return {static_cast<octomap::key_type>(compact3(code)),
-            static_cast<octomap::key_type>(compact3(code >> 1)),
-            static_cast<octomap::key_type>(compact3(code >> 2))};
-  }
   static std::size_t capacityFor(std::size_t n) {
     std::size_t c = 16;
     while (c < 2 * n) c *= 2;

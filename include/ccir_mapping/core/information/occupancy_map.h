@@ -3,6 +3,8 @@
 // the Cauchy-Schwarz mutual information of a scan's beams (thesis section 3.2.3).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -16,7 +18,7 @@
 #include "ccir_mapping/core/common/types.h"
 #include "ccir_mapping/core/information/csqmi.h"
 #include "ccir_mapping/core/information/entropy_cache.h"
-#include "ccir_mapping/core/information/flat_key_set.h"
+#include "ccir_mapping/core/information/key_bricks.h"
 #include "ccir_mapping/core/information/map_information.h"
 #include "ccir_mapping/core/information/mapper_params.h"
 
@@ -32,7 +34,7 @@ struct Box {
 /// endpoint is occupied, even if another beam crossed it). Measuring and inserting use the same
 /// keys, so the measured entropy drop is exactly what inserting removes.
 struct ScanUpdate {
-  /// Each in the octree's depth-first order (FlatKeySet::inTreeOrder).
+  /// Each in the octree's depth-first order (KeyBricks::inTreeOrder).
   std::vector<octomap::OcTreeKey> free;
   std::vector<octomap::OcTreeKey> occupied;
   /// Points dropped for being non-finite.
@@ -118,16 +120,28 @@ class OccupancyMap final : public MapInformation {
 
   /// The voxels `points` (map frame) seen from `origin` update; returns the non-finite points.
   int collect(const pcl::PointCloud<pcl::PointXYZ>& points, const Eigen::Vector3d& origin,
-              FlatKeySet& free_cells, FlatKeySet& occupied_cells) const;
+              KeyBricks& free_cells, KeyBricks& occupied_cells) const;
   /// Makes the voxel unknown (removes its node).
   void forget(const octomap::OcTreeKey& key);
   /// One voxel's hit or miss, with the entropy box's statistics following it.
   void update(const octomap::OcTreeKey& key, bool hit);
   /// The voxel's node if the tree holds it at the finest depth (not inside a pruned leaf).
   octomap::OcTreeNode* finestLeaf(const octomap::OcTreeKey& key);
+  /// Right after finestLeaf(key) found nothing: the voxel's new leaf (log-odds 0), its missing
+  /// nodes created from where that descent stopped, as updateNode creates them without its
+  /// three descents from the root; nullptr when the voxel is inside a pruned leaf (updateNode
+  /// or setNodeValue must split it) or the tree is empty.
+  octomap::OcTreeNode* newLeaf(const octomap::OcTreeKey& key);
 
   MapperParams params_;
   octomap::OcTree tree_;
+  /// finestLeaf's last descent: the nodes from the root (path_[0], nullptr: none) down the
+  /// path of the key with Morton code path_code_, path_depth_ levels deep, when the tree had
+  /// path_tree_size_ nodes.
+  std::array<octomap::OcTreeNode*, 17> path_{};
+  std::uint64_t path_code_ = 0;
+  int path_depth_ = 0;
+  std::size_t path_tree_size_ = 0;
   octomap::OcTreeKey box_min_key_;
   octomap::OcTreeKey box_max_key_;
   double box_entropy_bits_ = 0.0;
