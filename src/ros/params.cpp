@@ -249,7 +249,7 @@ void load(ParamReader& reader, MapperSettings& config) {
   reader.read("submap_scans", p.submap_scans);
   reader.read("reanchor_shift_m", p.reanchor_shift_m);
   reader.read("reanchor_rotation_deg", p.reanchor_rotation_deg);
-  reader.read("reanchor_wait_s_per_mvoxel", p.reanchor_wait_s_per_mvoxel);
+  reader.read("reanchor_wait_s_per_mvoxel_visited", p.reanchor_wait_s_per_mvoxel_visited);
   reader.read("submap_window_scans", p.submap_window_scans);
   reader.read("entropy_box_half_width_m", p.entropy_box_half_width_m);
   reader.read("entropy_box_min_z_m", p.entropy_box_min_z_m);

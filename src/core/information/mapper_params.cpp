@@ -19,7 +19,8 @@ std::vector<std::string> MapperParams::validate() const {
   check.inRange("submap_scans", submap_scans, 1, 10000);
   check.inHalfOpenRange("reanchor_shift_m", reanchor_shift_m, 0.0, 100.0);
   check.inHalfOpenRange("reanchor_rotation_deg", reanchor_rotation_deg, 0.0, 180.0);
-  check.inRange("reanchor_wait_s_per_mvoxel", reanchor_wait_s_per_mvoxel, 0.0, 1000.0);
+  check.inRange("reanchor_wait_s_per_mvoxel_visited", reanchor_wait_s_per_mvoxel_visited, 0.0,
+                1000.0);
   check.inRange("submap_window_scans", submap_window_scans, 0, 1000000);
   check.inHalfOpenRange("entropy_box_half_width_m", entropy_box_half_width_m, 0.0, 10000.0);
   check.inRange("entropy_box_min_z_m", entropy_box_min_z_m, -1000.0, 1000.0);

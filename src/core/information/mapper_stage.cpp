@@ -10,7 +10,7 @@ namespace ccir_mapping::core::information {
 MapperStage::MapperStage(std::string robot, const MapperParams& params, Hooks hooks)
     : robot_(std::move(robot)),
       hooks_(std::move(hooks)),
-      wait_s_per_mvoxel_(params.reanchor_wait_s_per_mvoxel),
+      wait_s_per_mvoxel_visited_(params.reanchor_wait_s_per_mvoxel_visited),
       map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
       keyframes_(params),
       // The map's tree is never replaced (resume loads into it), so the reference stays good.
@@ -95,7 +95,8 @@ std::size_t MapperStage::followPoses(double now_s) {
     if (!changes.empty()) {
       const auto voxels = submaps_.apply(changes);
       map_->write([&](OccupancyMap& map) { map.assign(voxels); });
-      next_follow_s_ = now_s + wait_s_per_mvoxel_ * static_cast<double>(voxels.size()) / 1e6;
+      next_follow_s_ =
+          now_s + wait_s_per_mvoxel_visited_ * static_cast<double>(submaps_.lastVisited()) / 1e6;
     }
     const auto settled = keyframes_.settle();
     for (const SubmapId id : settled) submaps_.settle(id);

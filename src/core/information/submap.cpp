@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ccir_mapping/core/information/flat_key_set.h"
+#include "ccir_mapping/core/information/key_codes.h"
 
 namespace ccir_mapping::core::information {
 
@@ -22,11 +22,11 @@ void Submap::grow(const octomap::OcTreeKey& key) {
 void Submap::add(const ScanUpdate& update) {
   if (closed_) return;
   for (const auto& key : update.free) {
-    added_.push_back(FlatKeySet::pack(key));
+    added_.push_back(packKey(key));
     grow(key);
   }
   for (const auto& key : update.occupied) {
-    added_.push_back(FlatKeySet::pack(key) | kHit);
+    added_.push_back(packKey(key) | kHit);
     grow(key);
   }
 }
@@ -49,7 +49,7 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
   std::size_t i = 0;
   std::size_t j = 0;
   while (i < voxels_.size() || j < codes.size()) {
-    const std::uint64_t old_key = i < voxels_.size() ? FlatKeySet::pack(voxels_[i].key) : kNone;
+    const std::uint64_t old_key = i < voxels_.size() ? packKey(voxels_[i].key) : kNone;
     const std::uint64_t new_key = j < codes.size() ? (codes[j] & kKey) : kNone;
     if (old_key < new_key) {
       merged.push_back(voxels_[i++]);
@@ -60,8 +60,7 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
     for (; j < codes.size() && (codes[j] & kKey) == new_key; ++j) {
       log_odds = std::clamp(step(log_odds, codes[j]), model_.min, model_.max);
     }
-    merged.push_back(
-        {FlatKeySet::unpack(new_key), static_cast<std::int16_t>(std::lround(log_odds * 1e3F))});
+    merged.push_back({unpackKey(new_key), static_cast<std::int16_t>(std::lround(log_odds * 1e3F))});
   }
   merged.shrink_to_fit();
   voxels_.swap(merged);
@@ -69,15 +68,14 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
 
 void Submap::fold() {
   if (unsorted_) {
-    std::sort(voxels_.begin(), voxels_.end(), [](const Voxel& a, const Voxel& b) {
-      return FlatKeySet::pack(a.key) < FlatKeySet::pack(b.key);
-    });
+    std::sort(voxels_.begin(), voxels_.end(),
+              [](const Voxel& a, const Voxel& b) { return packKey(a.key) < packKey(b.key); });
     unsorted_ = false;
   }
   if (added_.empty()) return;
   // Stable: each voxel's hits and misses stay in the order they were added, as the map
   // applied them, so clamping cuts where it cut in the map.
-  FlatKeySet::sortCodes(added_);
+  sortKeyCodes(added_);
   merge(added_, [this](float log_odds, std::uint64_t code) {
     return log_odds + ((code & kHit) ? model_.hit : model_.miss);
   });
@@ -89,10 +87,10 @@ void Submap::absorb(const Submap& other, const octomap::OcTree& grid) {
   std::vector<std::uint64_t> codes;
   codes.reserve(other.voxels());
   other.forEach(grid, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
-    codes.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
+    codes.push_back(packKey(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
     grow(key);
   });
-  FlatKeySet::sortCodes(codes);
+  sortKeyCodes(codes);
   merge(codes, [](float log_odds, std::uint64_t code) {
     return log_odds + static_cast<float>(static_cast<std::int16_t>(code >> 48)) * 1e-3F;
   });

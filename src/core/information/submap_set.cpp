@@ -3,7 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ccir_mapping/core/information/flat_key_set.h"
+#include "ccir_mapping/core/information/key_bricks.h"
+#include "ccir_mapping/core/information/key_codes.h"
 
 namespace ccir_mapping::core::information {
 
@@ -51,8 +52,12 @@ void SubmapSet::close(SubmapId id) {
 
 SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
   // The voxels to recompute: where the changed submaps were, and where they are now.
-  FlatKeySet affected;
-  const auto mark = [&](const octomap::OcTreeKey& key, std::int16_t) { affected.insert(key); };
+  KeyBricks affected;
+  visited_ = 0;
+  const auto mark = [&](const octomap::OcTreeKey& key, std::int16_t) {
+    affected.insert(key);
+    ++visited_;
+  };
   for (const Change& change : changes) {
     Submap& s = submap(change.id);
     s.fold();
@@ -65,19 +70,18 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     s.setDelta(change.delta);
     s.forEach(grid_, mark);
   }
-  if (affected.size() == 0) return {};
+  if (affected.empty()) return {};
   octomap::OcTreeKey lo(0xFFFF, 0xFFFF, 0xFFFF);
   octomap::OcTreeKey hi(0, 0, 0);
   std::vector<std::uint64_t> keys;
-  keys.reserve(affected.size());
   affected.forEach([&](const octomap::OcTreeKey& key) {
-    keys.push_back(FlatKeySet::pack(key));
+    keys.push_back(packKey(key));
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], key[a]);
       hi[a] = std::max(hi[a], key[a]);
     }
   });
-  FlatKeySet::sortCodes(keys);
+  sortKeyCodes(keys);
   // What every submap and settled run that reaches them says of them: the key, and the
   // log-odds above it.
   std::vector<std::uint64_t> said;
@@ -88,16 +92,18 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     if (!overlaps) return;
     s.fold();
     const auto say = [&](const octomap::OcTreeKey& key, std::int16_t mils) {
-      said.push_back(FlatKeySet::pack(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
+      said.push_back(packKey(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
     };
     if (!s.moved()) return s.forEachAmong(keys, say);
+    visited_ += s.voxels();
     s.forEach(grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
       if (affected.contains(key)) say(key, mils);
     });
   };
   for (auto& [id, s] : submaps_) gather(s);
   for (Submap& run : settled_) gather(run);
-  FlatKeySet::sortCodes(said);
+  sortKeyCodes(said);
+  visited_ += said.size() + keys.size();
   const Submap::Model model = Submap::Model::of(grid_);
   constexpr std::uint64_t kKey = (std::uint64_t{1} << 48) - 1;
   Voxels voxels;
@@ -110,7 +116,7 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
       log_odds = log_odds.value_or(0.0F) + static_cast<float>(mils) * 1e-3F;
     }
     if (log_odds) log_odds = std::clamp(*log_odds, model.min, model.max);
-    voxels.emplace_back(FlatKeySet::unpack(key), log_odds);
+    voxels.emplace_back(unpackKey(key), log_odds);
   }
   return voxels;
 }

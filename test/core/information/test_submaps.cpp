@@ -281,6 +281,31 @@ TEST(SubmapSet, RecomputesTheMapOnlyWhereMovedSubmapsWereAndAre) {
   EXPECT_GT(withinOneVoxel(moved_only, map), 0.999);
 }
 
+TEST(SubmapSet, CountsTheVoxelsAMoveVisitsAMovedSubmapGatheredFromWhole) {
+  OccupancyMap map(params());
+  SubmapSet submaps(map.tree());
+  const auto key = [](int x, int y) { return octomap::OcTreeKey(32768 + x, 32768 + y, 32768); };
+  // Submap 1: 5 voxels along x; submap 2: 50, the first 5 the same.
+  for (const auto& [id, length] : {std::pair<SubmapId, int>{1, 5}, {2, 50}}) {
+    ScanUpdate update;
+    for (int x = 0; x < length; ++x) update.free.push_back(key(x, 0));
+    submaps.add(id, update);
+    submaps.close(id);
+  }
+  const Pose3 one_voxel_y(Eigen::Translation3d(0, 0.1, 0));
+  // Submap 1 a voxel along y: its 5 voxels where they were and 5 where they are (10 keys to
+  // recompute), its evidence read whole (moved: 5), submap 2's among the keys (in key order,
+  // unmoved), the 10 values gathered, the 10 keys.
+  submaps.apply({{1, one_voxel_y, std::nullopt}});
+  EXPECT_EQ(submaps.lastVisited(), 5U + 5U + 5U + 10U + 10U);
+  submaps.apply({{1, Pose3::Identity(), std::nullopt}});  // back: nothing read whole
+  EXPECT_EQ(submaps.lastVisited(), 5U + 5U + 10U + 10U);
+  // Submap 2 moved within its voxels (still moved): from now on it is read whole.
+  submaps.apply({{2, Pose3(Eigen::Translation3d(0, 0, 0.01)), std::nullopt}});
+  submaps.apply({{1, one_voxel_y, std::nullopt}});
+  EXPECT_EQ(submaps.lastVisited(), 5U + 5U + 5U + 50U + 10U + 10U);
+}
+
 TEST(SubmapSet, TheSettledPartStaysAFewRunsAndSumsTheEvidenceOfEverySubmapSettled) {
   OccupancyMap map(params());
   SubmapSet submaps(map.tree());
@@ -351,9 +376,9 @@ TEST(MapperStage, MovingSubmapsEqualsInsertingTheirScansAtTheNewPosesWithinOneVo
   EXPECT_EQ(stage.followPoses(1e6), 0U) << "nothing moved since";
 }
 
-TEST(MapperStage, WaitsInProportionToTheVoxelsItRecomputed) {
+TEST(MapperStage, WaitsInProportionToTheVoxelsItVisited) {
   MapperParams p = params();
-  p.reanchor_wait_s_per_mvoxel = 1000.0;  // 1 ms a voxel
+  p.reanchor_wait_s_per_mvoxel_visited = 1000.0;  // 1 ms a voxel
   MapperStage stage("robot_a", p);
   stage.addOwn(1, scanFrom(at(0, 0)), at(0, 0));
   stage.setOptimizedPoses({{1, at(0, 1)}});

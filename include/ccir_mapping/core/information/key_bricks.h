@@ -38,6 +38,21 @@ class KeyBricks {
     return n;
   }
 
+  bool empty() const { return bricks_.empty(); }
+
+  /// Calls f(key) for every key, brick by brick.
+  template <class F>
+  void forEach(F&& f) const {
+    for (const Brick& b : bricks_) {
+      for (unsigned w = 0; w < 8; ++w) {
+        for (std::uint64_t word = b.bits[w]; word; word &= word - 1) {
+          const auto bit = static_cast<unsigned>(__builtin_ctzll(word));
+          f(fromMorton(b.code << 9 | (w << 6 | bit)));
+        }
+      }
+    }
+  }
+
   /// The keys in the octree's depth-first order (Morton order of x, y, z as OctoMap numbers its
   /// children), leaving out those `except` holds: updating them one after the other walks the
   /// tree's memory in order (in hash order, inserting a scan took twice as long).

@@ -35,12 +35,14 @@ struct MapperParams {
   /// first one, while it still holds its clouds.
   double reanchor_shift_m = 0.2;
   double reanchor_rotation_deg = 1.0;
-  /// After following moved poses the Mapper waits this long per million map voxels it
-  /// recomputed (0: none). A move costs about what inserting its scans again would (~0.9 s of
-  /// CPU per million voxels on the 300 s mission; a scan's rays cross ~150 k), so with a wait it
-  /// takes at most ~0.9 / (0.9 + this) of a core (~15 % at 5) while moves that came meanwhile
-  /// gather; without one it follows every solve at once.
-  double reanchor_wait_s_per_mvoxel = 5.0;
+  /// After following moved poses the Mapper waits this long per million voxels the follow
+  /// visited (SubmapSet::lastVisited: the moved submaps' own, those of the submaps it gathered
+  /// from, the map's recomputed; 0: no wait). A follow's CPU time follows that count at ~0.06 s
+  /// per million (0.058 - 0.064 over the follows of an 8-minute three-robot mission, where the
+  /// map's voxels alone varied 0.33 - 0.54 s per million), so following takes at most
+  /// ~0.06 / (0.06 + this) of a core (~15 % at 0.35) while the moves of the solves meanwhile
+  /// gather; without a wait it follows every solve at once.
+  double reanchor_wait_s_per_mvoxel_visited = 0.35;
   /// The newest this many placed scans are in live submaps, which follow corrections and keep
   /// their clouds (~0.1-0.3 MB a scan) and evidence (~1 MB a scan at 0.1 m: a scan's rays cross
   /// ~150 k voxels, few shared with the next scan's). Once a quarter more are placed, the oldest

@@ -70,9 +70,10 @@ class MapperStage {
   void setOptimizedPoses(const std::vector<std::pair<Stamp, Pose3>>& poses);
 
   /// Brings the map to the poses set since the last call (KeyframeMap::takeMoves) and settles
-  /// the submaps beyond the window, unless the wait after the last one (reanchor_wait_s_per_mvoxel)
-  /// runs until after `now_s` (seconds on the clock the cost is paid in: the wall clock of a
-  /// robot, simulated time of a simulated one); returns the submaps moved or integrated again.
+  /// the submaps beyond the window, unless the wait after the last one
+  /// (reanchor_wait_s_per_mvoxel_visited) runs until after `now_s` (seconds on the clock the cost
+  /// is paid in: the wall clock of a robot, simulated time of a simulated one); returns the submaps
+  /// moved or integrated again.
   std::size_t followPoses(double now_s);
   /// Writes the map to DIR/map.bt (OctoMap binary), creating DIR, and returns the file's path.
   /// Throws std::runtime_error naming what it could not write.
@@ -93,7 +94,7 @@ class MapperStage {
   mutable std::mutex mutex_;  // guards what follows; only this stage writes the map
   KeyframeMap keyframes_;
   SubmapSet submaps_;
-  const double wait_s_per_mvoxel_;
+  const double wait_s_per_mvoxel_visited_;
   double next_follow_s_ = -std::numeric_limits<double>::infinity();
   std::uint64_t submap_moves_ = 0;
   std::uint64_t reintegrations_ = 0;

@@ -13,7 +13,7 @@
 #include <octomap/OcTree.h>
 
 #include "ccir_mapping/core/common/types.h"
-#include "ccir_mapping/core/information/flat_key_set.h"
+#include "ccir_mapping/core/information/key_codes.h"
 #include "ccir_mapping/core/information/occupancy_map.h"
 
 namespace ccir_mapping::core::information {
@@ -54,32 +54,41 @@ class Submap {
   /// voxel holding its centre moved by delta(); one that leaves OctoMap's reach is skipped).
   template <class F>
   void forEach(const octomap::OcTree& grid, F&& f) const {
+    if (!moved_) {
+      for (const Voxel& v : voxels_) f(v.key, v.log_odds_mils);
+      return;
+    }
+    // delta() in key units: the key holding the moved centre of key k is floor(r k + b), where
+    // keyToCoord, the transform and coordToKeyChecked took three conversions a voxel.
+    const double centre = static_cast<double>(1U << (grid.getTreeDepth() - 1));
+    const double span = 2.0 * centre;
+    const Eigen::Matrix3d r = delta_.linear();
+    const Eigen::Vector3d b = r * Eigen::Vector3d::Constant(0.5 - centre) +
+                              delta_.translation() / grid.getResolution() +
+                              Eigen::Vector3d::Constant(centre);
     for (const Voxel& v : voxels_) {
-      if (!moved_) {
-        f(v.key, v.log_odds_mils);
-        continue;
-      }
-      const octomap::point3d c = grid.keyToCoord(v.key);
-      const Eigen::Vector3d at = delta_ * Eigen::Vector3d(c.x(), c.y(), c.z());
-      octomap::OcTreeKey moved;
-      if (grid.coordToKeyChecked(octomap::point3d(at.x(), at.y(), at.z()), moved))
-        f(moved, v.log_odds_mils);
+      const Eigen::Vector3d at = r * Eigen::Vector3d(v.key[0], v.key[1], v.key[2]) + b;
+      if (at.minCoeff() < 0.0 || at.maxCoeff() >= span) continue;  // beyond OctoMap's reach
+      f(octomap::OcTreeKey(static_cast<octomap::key_type>(at.x()),
+                           static_cast<octomap::key_type>(at.y()),
+                           static_cast<octomap::key_type>(at.z())),
+        v.log_odds_mils);
     }
   }
 
   /// For a submap that never moved: f(key, log_odds_mils) for each voxel whose packed key
-  /// (FlatKeySet::pack) is among `codes` (sorted), by merging the two sorted sequences (each
+  /// (packKey) is among `codes` (sorted), by merging the two sorted sequences (each
   /// skipping ahead by galloping where the other is sparse): reading the evidence in order
   /// instead of probing a hash set of `codes` voxel by voxel, which missed the cache for most.
   template <class F>
   void forEachAmong(const std::vector<std::uint64_t>& codes, F&& f) const {
     const auto voxel_before = [](const Voxel& voxel, std::uint64_t code) {
-      return FlatKeySet::pack(voxel.key) < code;
+      return packKey(voxel.key) < code;
     };
     auto c = codes.begin();
     auto v = voxels_.begin();
     while (v != voxels_.end() && c != codes.end()) {
-      const std::uint64_t at = FlatKeySet::pack(v->key);
+      const std::uint64_t at = packKey(v->key);
       if (at < *c) {
         v = gallop(v, voxels_.end(), *c, voxel_before);
       } else if (*c < at) {
@@ -122,7 +131,7 @@ class Submap {
   void merge(std::vector<std::uint64_t>& codes, Step step);
 
   Model model_;
-  std::vector<Voxel> voxels_;         // folded, in key order (FlatKeySet::pack)
+  std::vector<Voxel> voxels_;         // folded, in key order (packKey)
   std::vector<std::uint64_t> added_;  // since: packed key, kHit for a hit, in the order added
   octomap::OcTreeKey min_{octomap::key_type(0xFFFF), octomap::key_type(0xFFFF),
                           octomap::key_type(0xFFFF)};

@@ -50,6 +50,11 @@ class SubmapSet {
   /// Applies the changes to the submaps and returns the voxels of the map that change with them
   /// (for OccupancyMap::assign).
   Voxels apply(const std::vector<Change>& changes);
+  /// The voxels the last apply() read or wrote: those of the changed submaps where they were
+  /// and are, of the moved submaps it gathered from (every one: they are not in key order
+  /// where they are now), the evidence gathered and the map's voxels recomputed. What it cost
+  /// follows this, where the map's voxels alone miss the submaps gathered from.
+  std::size_t lastVisited() const { return visited_; }
 
   /// Submaps not settled.
   std::size_t size() const { return submaps_.size(); }
@@ -66,6 +71,7 @@ class SubmapSet {
   const octomap::OcTree& grid_;
   std::map<SubmapId, Submap> submaps_;
   std::vector<Submap> settled_;  // the settled part's runs, largest first
+  std::size_t visited_ = 0;
 };
 
 }  // namespace ccir_mapping::core::information
