@@ -20,8 +20,8 @@ inline octomap::OcTreeKey unpackKey(std::uint64_t p) {
           static_cast<octomap::key_type>(p)};
 }
 
-/// Stable LSD radix sort by the low 48 bits (the payload travels along), 16 bits a pass: with
-/// std::sort on a scan's ~150 k keys an insertion took 98 ms, with this 76 ms.
+/// Stable LSD radix sort by the low 48 bits (the payload travels along), 16 bits a pass: when a
+/// scan's ~150 k keys were sorted so, its insertion took 76 ms, with std::sort 98 ms.
 inline void sortKeyCodes(std::vector<std::uint64_t>& codes) {
   std::vector<std::uint64_t> sorted(codes.size());
   std::vector<std::size_t> start(1 << 16);
