@@ -585,30 +585,26 @@ void TeamGraph::judgeLinks(BackendSnapshot& snapshot, std::vector<LoopLine>& em_
           judgeDisagreement(refinedTransform(peer), joined->second.transform, found.transform,
                             accepted, em_inliers, params_);
       using Verdict = TeamDisagreement::Verdict;
-      char text[320];
-      const double shift_m = judged.shift_m, turn_deg = judged.turn_deg;
-      if (judged.verdict == Verdict::kKeepGraph) {
-        std::snprintf(text, sizeof text,
-                      "the EM transform to %s is %.2f m / %.1f deg from the graph's; keeping "
-                      "the graph's: its switches accept %d closures, the EM %d of them",
-                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers);
-      } else if (judged.verdict == Verdict::kTriedBefore) {
-        std::snprintf(text, sizeof text,
-                      "the EM transform to %s is %.2f m / %.1f deg from the graph's, which "
-                      "accepts only %d closures, the EM %d of them; keeping the graph's: %s "
-                      "was placed with that transform already",
-                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
-      } else if (judged.verdict == Verdict::kPlaceAgain) {
-        std::snprintf(text, sizeof text,
-                      "the EM transform to %s is %.2f m / %.1f deg from the graph's; the graph "
-                      "accepts only %d closures, the EM %d of them: %s placed again with the "
-                      "EM transform",
-                      peer.c_str(), shift_m, turn_deg, accepted, em_inliers, peer.c_str());
-        joined->second = {found.transform, {}, {}};
-        gate_.forgetKept(link);
-        full_due_ = true;
-      }
       if (judged.verdict != Verdict::kAgree) {
+        char head[160];
+        std::snprintf(head, sizeof head,
+                      "the EM transform to %s is %.2f m / %.1f deg from the graph's", peer.c_str(),
+                      judged.shift_m, judged.turn_deg);
+        const std::string counts = std::to_string(accepted) + " closures, the EM " +
+                                   std::to_string(em_inliers) + " of them";
+        std::string text = head;
+        if (judged.verdict == Verdict::kKeepGraph) {
+          text += "; keeping the graph's: its switches accept " + counts;
+        } else if (judged.verdict == Verdict::kTriedBefore) {
+          text += ", which accepts only " + counts + "; keeping the graph's: " + peer +
+                  " was placed with that transform already";
+        } else {
+          text += "; the graph accepts only " + counts + ": " + peer +
+                  " placed again with the EM transform";
+          joined->second = {found.transform, {}, {}};
+          gate_.forgetKept(link);
+          full_due_ = true;
+        }
         snapshot.notices.push_back({"team disagreement", text});
       }
     }
