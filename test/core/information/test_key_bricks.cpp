@@ -43,7 +43,6 @@ TEST(KeyBricks, ListsEveryKeyOnceInTheTreesDepthFirstOrder) {
     set.insert(key);  // again: still once
     reference.emplace(key[0], key[1], key[2]);
   }
-  EXPECT_EQ(set.size(), reference.size());
   expectInTreeOrder(set.inTreeOrder(), reference);
   const auto& [x, y, z] = *reference.begin();
   EXPECT_TRUE(set.contains(octomap::OcTreeKey(x, y, z)));

@@ -29,15 +29,6 @@ class KeyBricks {
     const unsigned bit = local(key);
     return at != kNone && ((bricks_[at].bits[bit >> 6] >> (bit & 63)) & 1);
   }
-  std::size_t size() const {
-    std::size_t n = 0;
-    for (const Brick& b : bricks_) {
-      for (const std::uint64_t word : b.bits)
-        n += static_cast<std::size_t>(__builtin_popcountll(word));
-    }
-    return n;
-  }
-
   bool empty() const { return bricks_.empty(); }
 
   /// Calls f(key) for every key, brick by brick.

@@ -2,6 +2,7 @@
 // their evidence and a move merges it; the 16 bits above carry a payload (a log-odds, a hit).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
