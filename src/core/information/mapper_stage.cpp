@@ -10,11 +10,11 @@ namespace ccir_mapping::core::information {
 MapperStage::MapperStage(std::string robot, const MapperParams& params, Hooks hooks)
     : robot_(std::move(robot)),
       hooks_(std::move(hooks)),
-      wait_s_per_mvoxel_visited_(params.reanchor_wait_s_per_mvoxel_visited),
       map_(std::make_shared<SharedMap>(std::make_unique<OccupancyMap>(params))),
       keyframes_(params),
-      // The map's tree is never replaced (resume loads into it), so the reference stays good.
-      submaps_(*map_->read([](const OccupancyMap& map) { return &map.tree(); })) {}
+      // The map's grid is never replaced, so the reference stays good.
+      submaps_(*map_->read([](const OccupancyMap& map) { return &map.grid(); })),
+      wait_s_per_mvoxel_visited_(params.reanchor_wait_s_per_mvoxel_visited) {}
 
 MapperStage::MapperStage(std::string robot, const MapperParams& params)
     : MapperStage(std::move(robot), params, Hooks{}) {}
@@ -134,7 +134,7 @@ bool MapperStage::resume(const std::string& dir) {
   }
   map_->write([&](OccupancyMap& map) {
     map.load(path);
-    submaps_.addSettled(map.tree());
+    submaps_.addSettled(map.voxels());
   });
   return true;
 }
@@ -144,10 +144,7 @@ MapperStage::Stats MapperStage::stats() const {
   map_->read([&](const OccupancyMap& map) {
     stats.entropy_bits = map.boxEntropyBits();
     stats.known_volume_m3 = map.boxKnownVolumeM3();
-    // OcTree::memoryUsage() walks the whole tree; the node count is kept. A node is 16 bytes,
-    // and about one in eight is an inner node with an array of 8 child pointers.
-    stats.map_mb = static_cast<double>(map.tree().size()) *
-                   (sizeof(octomap::OcTreeNode) + sizeof(void*)) / 1e6;
+    stats.map_mb = static_cast<double>(map.voxels().bytes()) / 1e6;
     return 0;
   });
   std::lock_guard<std::mutex> lock(mutex_);

@@ -31,12 +31,12 @@ double EntropyCache::entropyOf(float log_odds) {
 }
 
 OccupancyMap::OccupancyMap(const MapperParams& params)
-    : params_(validated(params)), tree_(params.resolution_m) {
-  tree_.setClampingThresMin(params_.occupancy_clamp_min);
-  tree_.setClampingThresMax(params_.occupancy_clamp_max);
+    : params_(validated(params)), grid_(params.resolution_m) {
+  grid_.setClampingThresMin(params_.occupancy_clamp_min);
+  grid_.setClampingThresMax(params_.occupancy_clamp_max);
   // validate() checked that the box lies within OctoMap's reach.
-  tree_.coordToKeyChecked(toOctomap(params_.entropyBoxMin()), box_min_key_);
-  tree_.coordToKeyChecked(toOctomap(params_.entropyBoxMax()), box_max_key_);
+  grid_.coordToKeyChecked(toOctomap(params_.entropyBoxMin()), box_min_key_);
+  grid_.coordToKeyChecked(toOctomap(params_.entropyBoxMax()), box_max_key_);
   box_entropy_bits_ = 1.0;
   for (int a = 0; a < 3; ++a) box_entropy_bits_ *= box_max_key_[a] - box_min_key_[a] + 1;
 }
@@ -45,139 +45,39 @@ double OccupancyMap::boxKnownVolumeM3() const {
   return box_known_voxels_ * std::pow(params_.resolution_m, 3);
 }
 
-octomap::OcTreeNode* OccupancyMap::finestLeaf(const octomap::OcTreeKey& key) {
-  // OcTreeBaseImpl::search's descent, except that a pruned leaf above the finest depth (it
-  // stands for many voxels) counts as not found: updateNode must split it. It starts where the
-  // last key's path parts from this one's: keys come in the tree's order, so that is mostly a
-  // level or two above the leaf. Nodes are added, never moved; what deletes them (forget(), or
-  // a prune that shrinks the tree) ends the path.
-  const int depth = static_cast<int>(tree_.getTreeDepth());
-  const std::uint64_t code = KeyBricks::morton(key);
-  octomap::OcTreeNode* const root = tree_.getRoot();
-  int from = 0;
-  if (path_[0] == root && root && tree_.size() >= path_tree_size_) {
-    const std::uint64_t differ = code ^ path_code_;
-    // Key bit b picks the child at depth - 1 - b; Morton bits 3b..3b + 2 hold it.
-    const int shared = differ ? depth - 1 - (63 - __builtin_clzll(differ)) / 3 : depth;
-    from = std::min(shared, path_depth_);
-  }
-  path_[0] = root;
-  path_code_ = code;
-  path_depth_ = from;
-  octomap::OcTreeNode* node = path_[static_cast<std::size_t>(from)];
-  for (int d = from; node && d < depth; ++d) {
-    const unsigned child = octomap::computeChildIdx(key, depth - 1 - d);
-    if (!tree_.nodeChildExists(node, child)) {
-      node = nullptr;
-      break;
-    }
-    node = tree_.getNodeChild(node, child);
-    path_[static_cast<std::size_t>(d + 1)] = node;
-    path_depth_ = d + 1;
-  }
-  path_tree_size_ = tree_.size();
-  return node;
-}
-
-octomap::OcTreeNode* OccupancyMap::newLeaf(const octomap::OcTreeKey& key) {
-  if (path_[0] != tree_.getRoot() || path_code_ != KeyBricks::morton(key)) return nullptr;
-  octomap::OcTreeNode* node = path_[static_cast<std::size_t>(path_depth_)];
-  if (!node || !tree_.nodeHasChildren(node)) return nullptr;  // a pruned leaf, or no tree
-  const int depth = static_cast<int>(tree_.getTreeDepth());
-  for (int d = path_depth_; d < depth; ++d) {
-    node = tree_.createNodeChild(node, octomap::computeChildIdx(key, depth - 1 - d));
-    path_[static_cast<std::size_t>(d + 1)] = node;
-  }
-  path_depth_ = depth;
-  path_tree_size_ = tree_.size();
-  return node;
+bool OccupancyMap::inBox(const octomap::OcTreeKey& key) const {
+  bool in_box = true;
+  for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
+  return in_box;
 }
 
 void OccupancyMap::update(const octomap::OcTreeKey& key, bool hit) {
-  bool in_box = true;
-  for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
-  // A voxel the map has at the finest depth is updated in place, as updateNode with lazy
-  // evaluation would (add the log-odds, clamp; inner nodes wait): one descent instead of two.
-  if (octomap::OcTreeNode* leaf = finestLeaf(key)) {
-    const double h_before = in_box ? entropy_(leaf->getLogOdds()) : 0.0;
-    tree_.updateNodeLogOdds(leaf, hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
-    if (in_box) box_entropy_bits_ += entropy_(leaf->getLogOdds()) - h_before;
-    return;
-  }
-  if (octomap::OcTreeNode* fresh = newLeaf(key)) {
-    tree_.updateNodeLogOdds(fresh, hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
-    if (in_box) {
-      box_known_voxels_ += 1.0;
-      box_entropy_bits_ += entropy_(fresh->getLogOdds()) - 1.0;
-    }
-    return;
-  }
-  if (!in_box) {  // inside a pruned leaf (updateNode splits it), or no tree yet
-    tree_.updateNode(key, hit, /*lazy_eval=*/true);
-    return;
-  }
-  const octomap::OcTreeNode* before = tree_.search(key);  // a pruned leaf, or nothing
-  const double h_before = before ? entropy_(before->getLogOdds()) : 1.0;
-  box_known_voxels_ += before ? 0.0 : 1.0;
-  const octomap::OcTreeNode* after = tree_.updateNode(key, hit, /*lazy_eval=*/true);
-  box_entropy_bits_ += entropy_(after->getLogOdds()) - h_before;
-}
-
-void OccupancyMap::forget(const octomap::OcTreeKey& key) {
-  path_[0] = nullptr;  // finestLeaf's path may lose nodes
-  // OcTreeBaseImpl::deleteNode deletes an inner node its last child left with the child array
-  // still allocated, which OctoMap 1.9's node destructor asserts against: the path is walked
-  // here, and an emptied node's array released (expandNode, then pruneNode) before it goes.
-  const int depth = static_cast<int>(tree_.getTreeDepth());
-  std::vector<std::pair<octomap::OcTreeNode*, unsigned>> path;
-  octomap::OcTreeNode* node = tree_.getRoot();
-  for (int d = 0; node && d < depth; ++d) {
-    const unsigned child = octomap::computeChildIdx(key, depth - 1 - d);
-    if (!tree_.nodeChildExists(node, child)) {
-      if (tree_.nodeHasChildren(node) || d == 0) return;  // not in the map
-      tree_.expandNode(node);                             // a pruned leaf holding the voxel
-    }
-    path.emplace_back(node, child);
-    node = tree_.getNodeChild(node, child);
-  }
-  for (auto step = path.rbegin(); step != path.rend(); ++step) {
-    auto [parent, child] = *step;
-    tree_.deleteNodeChild(parent, child);
-    if (tree_.nodeHasChildren(parent)) return;
-    if (parent == tree_.getRoot()) return tree_.clear();
-    tree_.expandNode(parent);
-    tree_.pruneNode(parent);
+  bool created = false;
+  float& log_odds = voxels_.at(key, created);
+  const bool in_box = inBox(key);
+  const double h_before = !in_box ? 0.0 : created ? 1.0 : entropy_(log_odds);
+  log_odds = updatedLogOdds(log_odds, hit);
+  if (in_box) {
+    box_known_voxels_ += created ? 1.0 : 0.0;
+    box_entropy_bits_ += entropy_(log_odds) - h_before;
   }
 }
 
 void OccupancyMap::assign(
     const std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>>& voxels) {
   for (const auto& [key, log_odds] : voxels) {
-    bool in_box = true;
-    for (int a = 0; a < 3; ++a) in_box &= key[a] >= box_min_key_[a] && key[a] <= box_max_key_[a];
-    octomap::OcTreeNode* leaf = finestLeaf(key);
-    if (in_box) {
-      const octomap::OcTreeNode* before = leaf ? leaf : tree_.search(key);  // or a pruned leaf
-      box_entropy_bits_ -= before ? entropy_(before->getLogOdds()) : 1.0;
-      box_known_voxels_ -= before ? 1.0 : 0.0;
+    if (inBox(key)) {
+      const float* before = voxels_.find(key);
+      box_entropy_bits_ +=
+          (log_odds ? entropy_(clamped(*log_odds)) : 1.0) - (before ? entropy_(*before) : 1.0);
+      box_known_voxels_ += (log_odds ? 1.0 : 0.0) - (before ? 1.0 : 0.0);
     }
     if (!log_odds) {
-      forget(key);
-      if (in_box) box_entropy_bits_ += 1.0;
+      voxels_.erase(key);
       continue;
     }
-    const float value =
-        std::clamp(*log_odds, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
-    if (!leaf) leaf = newLeaf(key);
-    if (leaf) {
-      leaf->setLogOdds(value);
-    } else {  // inside a pruned leaf (setNodeValue splits it), or no tree yet
-      tree_.setNodeValue(key, value, /*lazy_eval=*/true);
-    }
-    if (in_box) {
-      box_entropy_bits_ += entropy_(value);
-      box_known_voxels_ += 1.0;
-    }
+    bool created = false;
+    voxels_.at(key, created) = clamped(*log_odds);
   }
 }
 
@@ -201,11 +101,11 @@ int OccupancyMap::collect(const pcl::PointCloud<pcl::PointXYZ>& points,
     const float range = (end - from).norm();
     const bool hit = range <= max_range;
     if (!hit) end = from + (end - from) * (max_range / range);
-    if (tree_.computeRayKeys(from, end, ray)) {
+    if (grid_.computeRayKeys(from, end, ray)) {
       for (const auto& key : ray) free_cells.insert(key);
     }
     octomap::OcTreeKey key;
-    if (hit && tree_.coordToKeyChecked(end, key)) occupied_cells.insert(key);
+    if (hit && grid_.coordToKeyChecked(end, key)) occupied_cells.insert(key);
   }
   return dropped;
 }
@@ -234,10 +134,12 @@ ScanUpdate OccupancyMap::computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& sen
 
 pcl::PointCloud<pcl::PointXYZ> OccupancyMap::occupiedCentres() const {
   pcl::PointCloud<pcl::PointXYZ> centres;
-  for (auto it = tree_.begin_leafs(), end = tree_.end_leafs(); it != end; ++it) {
-    if (tree_.isNodeOccupied(*it))
-      centres.push_back(pcl::PointXYZ(it.getX(), it.getY(), it.getZ()));
-  }
+  const float occupied = grid_.getOccupancyThresLog();  // as OcTree::isNodeOccupied
+  voxels_.forEach([&](const octomap::OcTreeKey& key, float log_odds) {
+    if (log_odds < occupied) return;
+    const octomap::point3d c = grid_.keyToCoord(key);
+    centres.push_back(pcl::PointXYZ(c.x(), c.y(), c.z()));
+  });
   return centres;
 }
 
@@ -252,18 +154,21 @@ void OccupancyMap::insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
 }
 
 float OccupancyMap::updatedLogOdds(float log_odds, bool hit) const {
-  const float updated = log_odds + (hit ? tree_.getProbHitLog() : tree_.getProbMissLog());
-  return std::clamp(updated, tree_.getClampingThresMinLog(), tree_.getClampingThresMaxLog());
+  return clamped(log_odds + (hit ? grid_.getProbHitLog() : grid_.getProbMissLog()));
+}
+
+float OccupancyMap::clamped(float log_odds) const {
+  return std::clamp(log_odds, grid_.getClampingThresMinLog(), grid_.getClampingThresMaxLog());
 }
 
 double OccupancyMap::occupancy(const octomap::OcTreeKey& key) const {
-  const octomap::OcTreeNode* node = tree_.search(key);
-  return node ? node->getOccupancy() : 0.5;
+  const float* log_odds = voxels_.find(key);
+  return log_odds ? probability(*log_odds) : 0.5;
 }
 
 double OccupancyMap::entropyDrop(const octomap::OcTreeKey& key, bool hit) const {
-  const octomap::OcTreeNode* node = tree_.search(key);
-  const float before = node ? node->getLogOdds() : 0.0F;
+  const float* log_odds = voxels_.find(key);
+  const float before = log_odds ? *log_odds : 0.0F;
   return occupancyEntropyBits(probability(before)) -
          occupancyEntropyBits(probability(updatedLogOdds(before, hit)));
 }
@@ -312,64 +217,40 @@ double OccupancyMap::entropyReduction(const ScanUpdate& update) const {
 
 namespace {
 
-/// Calls f(leaf, finest voxels of the leaf inside the box) for every known leaf in the box.
-template <class F>
-void forLeavesInBox(const octomap::OcTree& tree, const Box& box, F&& f) {
-  const double res = tree.getResolution();
+/// The keys of the box's corners, or nothing where it leaves OctoMap's reach.
+std::optional<std::pair<octomap::OcTreeKey, octomap::OcTreeKey>> boxKeys(
+    const octomap::OcTree& grid, const Box& box) {
   octomap::OcTreeKey min_key;
   octomap::OcTreeKey max_key;
-  if (!tree.coordToKeyChecked(toOctomap(box.min), min_key) ||
-      !tree.coordToKeyChecked(toOctomap(box.max), max_key)) {
-    return;
+  if (!grid.coordToKeyChecked(toOctomap(box.min), min_key) ||
+      !grid.coordToKeyChecked(toOctomap(box.max), max_key)) {
+    return std::nullopt;
   }
-  Eigen::Vector3d lo;
-  Eigen::Vector3d hi;
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = tree.keyToCoord(min_key[a]) - res / 2;
-    hi[a] = tree.keyToCoord(max_key[a]) + res / 2;
-  }
-  for (auto it = tree.begin_leafs_bbx(min_key, max_key), end = tree.end_leafs_bbx(); it != end;
-       ++it) {
-    // A pruned leaf stands for 8^(16 - depth) finest voxels; count those inside the box.
-    const double half = it.getSize() / 2;
-    const octomap::point3d c = it.getCoordinate();
-    double voxels = 1.0;
-    for (int a = 0; a < 3; ++a) {
-      const double overlap =
-          std::min<double>(hi[a], c(a) + half) - std::max<double>(lo[a], c(a) - half);
-      voxels *= std::max(0.0, std::round(overlap / res));
-    }
-    if (voxels > 0) f(*it, voxels);
-  }
-}
-
-double boxVoxels(const octomap::OcTree& tree, const Box& box) {
-  octomap::OcTreeKey min_key;
-  octomap::OcTreeKey max_key;
-  if (!tree.coordToKeyChecked(toOctomap(box.min), min_key) ||
-      !tree.coordToKeyChecked(toOctomap(box.max), max_key)) {
-    return 0.0;
-  }
-  double voxels = 1.0;
-  for (int a = 0; a < 3; ++a) voxels *= std::max(0, max_key[a] - min_key[a] + 1);
-  return voxels;
+  return std::pair(min_key, max_key);
 }
 
 }  // namespace
 
 double OccupancyMap::entropyBits(const Box& box) const {
+  const auto keys = boxKeys(grid_, box);
+  if (!keys) return 0.0;
+  double voxels = 1.0;
+  for (int a = 0; a < 3; ++a) voxels *= std::max(0, keys->second[a] - keys->first[a] + 1);
   double known = 0.0;
   double bits = 0.0;
-  forLeavesInBox(tree_, box, [&](const octomap::OcTreeNode& leaf, double voxels) {
-    known += voxels;
-    bits += voxels * occupancyEntropyBits(leaf.getOccupancy());
+  voxels_.forEachIn(keys->first, keys->second, [&](const octomap::OcTreeKey&, float log_odds) {
+    known += 1.0;
+    bits += occupancyEntropyBits(probability(log_odds));
   });
-  return bits + (boxVoxels(tree_, box) - known);
+  return bits + (voxels - known);
 }
 
 double OccupancyMap::knownVolumeM3(const Box& box) const {
+  const auto keys = boxKeys(grid_, box);
+  if (!keys) return 0.0;
   double known = 0.0;
-  forLeavesInBox(tree_, box, [&](const octomap::OcTreeNode&, double voxels) { known += voxels; });
+  voxels_.forEachIn(keys->first, keys->second,
+                    [&](const octomap::OcTreeKey&, float) { known += 1.0; });
   return known * std::pow(params_.resolution_m, 3);
 }
 
@@ -387,13 +268,13 @@ BeamCells OccupancyMap::beamCells(const Eigen::Vector3d& origin,
   octomap::KeyRay ray;
   for (double from = 0.0; from < beam.max_range_m; from += kSegmentM) {
     const double to = std::min(beam.max_range_m, from + kSegmentM);
-    if (!tree_.computeRayKeys(toOctomap(origin + unit * from), toOctomap(origin + unit * to),
+    if (!grid_.computeRayKeys(toOctomap(origin + unit * from), toOctomap(origin + unit * to),
                               ray)) {
       return beam;
     }
     for (const auto& key : ray) {
       const double o = occupancy(key);
-      const octomap::point3d c = tree_.keyToCoord(key);
+      const octomap::point3d c = grid_.keyToCoord(key);
       beam.occupancy.push_back(o);
       beam.range_m.push_back((Eigen::Vector3d(c.x(), c.y(), c.z()) - origin).norm());
       all_free *= 1.0 - o;
@@ -439,9 +320,23 @@ double OccupancyMap::simulatedCsqmi(const Pose3& sensor_pose) const {
   return beamsCsqmi(sensor_pose.translation(), directions);
 }
 
-bool OccupancyMap::save(const std::string& path) {
-  tree_.updateInnerOccupancy();
-  return tree_.writeBinaryConst(path);
+bool OccupancyMap::save(const std::string& path) const {
+  // A binary OctoMap keeps free or occupied only: each voxel goes in at its clamping bound, and
+  // every 2^20 voxels the tree is pruned (in the voxels' order the subtrees behind are whole).
+  octomap::OcTree tree(params_.resolution_m);
+  tree.setClampingThresMin(params_.occupancy_clamp_min);
+  tree.setClampingThresMax(params_.occupancy_clamp_max);
+  const float occupied = grid_.getOccupancyThresLog();
+  std::size_t added = 0;
+  voxels_.forEach([&](const octomap::OcTreeKey& key, float log_odds) {
+    tree.setNodeValue(
+        key, log_odds >= occupied ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(),
+        /*lazy_eval=*/true);
+    if (++added % (std::size_t{1} << 20) == 0) tree.prune();
+  });
+  tree.prune();
+  tree.updateInnerOccupancy();
+  return tree.writeBinaryConst(path);
 }
 
 void OccupancyMap::load(const std::string& path) {
@@ -455,10 +350,25 @@ void OccupancyMap::load(const std::string& path) {
     throw std::runtime_error(path + " has voxels of " + std::to_string(read.getResolution()) +
                              " m, not resolution_m " + std::to_string(params_.resolution_m));
   }
-  // Inserting updates finest voxels only (finestLeaf): a pruned file is expanded.
-  read.expand();
-  tree_.swapContent(read);
-  path_[0] = nullptr;
+  voxels_.clear();
+  const int depth = static_cast<int>(read.getTreeDepth());
+  for (auto it = read.begin_leafs(), end = read.end_leafs(); it != end; ++it) {
+    // A pruned leaf stands for a cube of finest voxels from its lowest key.
+    const int side = 1 << (depth - static_cast<int>(it.getDepth()));
+    const octomap::OcTreeKey low = it.getIndexKey();
+    const float log_odds = it->getLogOdds();
+    bool created = false;
+    for (int x = 0; x < side; ++x) {
+      for (int y = 0; y < side; ++y) {
+        for (int z = 0; z < side; ++z) {
+          voxels_.at(octomap::OcTreeKey(static_cast<octomap::key_type>(low[0] + x),
+                                        static_cast<octomap::key_type>(low[1] + y),
+                                        static_cast<octomap::key_type>(low[2] + z)),
+                     created) = log_odds;
+        }
+      }
+    }
+  }
   const Box box{params_.entropyBoxMin(), params_.entropyBoxMax()};
   box_entropy_bits_ = entropyBits(box);
   box_known_voxels_ = knownVolumeM3(box) / std::pow(params_.resolution_m, 3);

@@ -14,11 +14,9 @@ Submap& SubmapSet::submap(SubmapId id) {
 
 void SubmapSet::add(SubmapId id, const ScanUpdate& update) { submap(id).add(update); }
 
-void SubmapSet::addSettled(const octomap::OcTree& map) {
+void SubmapSet::addSettled(const VoxelGrid& map) {
   Submap read(Submap::Model::of(grid_));
-  for (auto it = map.begin_leafs(), end = map.end_leafs(); it != end; ++it) {
-    read.add(it.getKey(), it->getLogOdds());
-  }
+  map.forEach([&](const octomap::OcTreeKey& key, float log_odds) { read.add(key, log_odds); });
   read.close();
   addRun(std::move(read));
 }

@@ -36,10 +36,9 @@ using KeyTuple = std::tuple<int, int, int>;
 
 std::set<KeyTuple> occupied(const OccupancyMap& map) {
   std::set<KeyTuple> keys;
-  const auto& tree = map.tree();
-  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
-    if (tree.isNodeOccupied(*it)) keys.emplace(it.getKey()[0], it.getKey()[1], it.getKey()[2]);
-  }
+  map.voxels().forEach([&](const octomap::OcTreeKey& key, float log_odds) {
+    if (log_odds >= map.grid().getOccupancyThresLog()) keys.emplace(key[0], key[1], key[2]);
+  });
   return keys;
 }
 
@@ -66,33 +65,34 @@ double occupiedCount(const MapperStage& stage) {
 TEST(OccupancyMap, AssignSetsOrForgetsVoxelsWithTheEntropyBoxFollowing) {
   OccupancyMap map(params());
   map.insert(*scanFrom(at(0, 0)), at(0, 0));
-  auto leaf = map.tree().begin_leafs();
-  const octomap::OcTreeKey known = leaf.getKey();
-  const octomap::OcTreeKey forgotten = (++leaf).getKey();
+  std::vector<octomap::OcTreeKey> keys;
+  map.voxels().forEach([&](const octomap::OcTreeKey& key, float) { keys.push_back(key); });
+  ASSERT_GE(keys.size(), 2U);
+  const octomap::OcTreeKey known = keys[0];
+  const octomap::OcTreeKey forgotten = keys[1];
   octomap::OcTreeKey unknown;
-  ASSERT_TRUE(map.tree().coordToKeyChecked(octomap::point3d(30, 30, 0), unknown));
+  ASSERT_TRUE(map.grid().coordToKeyChecked(octomap::point3d(30, 30, 0), unknown));
   map.assign({{known, 2.0F}, {forgotten, std::nullopt}, {unknown, -99.0F}});
-  EXPECT_NEAR(map.tree().search(known)->getLogOdds(), 2.0, 1e-6);
-  EXPECT_EQ(map.tree().search(forgotten), nullptr);
-  EXPECT_NEAR(map.tree().search(unknown)->getLogOdds(), map.tree().getClampingThresMinLog(), 1e-6)
-      << "clamped";
+  EXPECT_NEAR(*map.voxels().find(known), 2.0, 1e-6);
+  EXPECT_EQ(map.voxels().find(forgotten), nullptr);
+  EXPECT_NEAR(*map.voxels().find(unknown), map.grid().getClampingThresMinLog(), 1e-6) << "clamped";
+  EXPECT_EQ(map.voxels().voxels(), keys.size());
   const Box box{params().entropyBoxMin(), params().entropyBoxMax()};
   EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(box), 1e-9 * map.boxEntropyBits());
   EXPECT_NEAR(map.boxKnownVolumeM3(), map.knownVolumeM3(box), 1e-9);
 }
 
 TEST(OccupancyMap, EveryVoxelHoldsWhatWasLastAssignedOrInsertedInWhateverOrder) {
-  // Updates walk down from where the last key's path parted (finestLeaf): keys out of the
-  // tree's order, voxels forgotten between (nodes deleted), and new nodes must not lead them
-  // astray. A plain map of key -> log-odds is the reference.
+  // Keys out of the tree's order, voxels forgotten between (bricks released) and new ones must
+  // not lead the map's bricks astray. A plain map of key -> log-odds is the reference.
   OccupancyMap map(params());
   std::map<std::tuple<int, int, int>, float> reference;
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> near(32760, 32800);  // a few bricks: paths shared often
   std::uniform_real_distribution<float> value(-4.0F, 4.0F);
-  const float hit = map.tree().getProbHitLog();
-  const float lo = map.tree().getClampingThresMinLog();
-  const float hi = map.tree().getClampingThresMaxLog();
+  const float hit = map.grid().getProbHitLog();
+  const float lo = map.grid().getClampingThresMinLog();
+  const float hi = map.grid().getClampingThresMaxLog();
   for (int round = 0; round < 40; ++round) {
     std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> assigned;
     ScanUpdate hits;
@@ -125,14 +125,12 @@ TEST(OccupancyMap, EveryVoxelHoldsWhatWasLastAssignedOrInsertedInWhateverOrder) 
       it->second = std::clamp(it->second + hit, lo, hi);
     }
   }
-  std::size_t leaves = 0;
-  for (auto it = map.tree().begin_leafs(); it != map.tree().end_leafs(); ++it) ++leaves;
-  EXPECT_EQ(leaves, reference.size());
+  EXPECT_EQ(map.voxels().voxels(), reference.size());
   for (const auto& [at, log_odds] : reference) {
-    const auto* node =
-        map.tree().search(octomap::OcTreeKey(std::get<0>(at), std::get<1>(at), std::get<2>(at)));
-    ASSERT_NE(node, nullptr);
-    ASSERT_NEAR(node->getLogOdds(), log_odds, 1e-5);
+    const float* found =
+        map.voxels().find(octomap::OcTreeKey(std::get<0>(at), std::get<1>(at), std::get<2>(at)));
+    ASSERT_NE(found, nullptr);
+    ASSERT_NEAR(*found, log_odds, 1e-5);
   }
   const Box box{params().entropyBoxMin(), params().entropyBoxMax()};
   EXPECT_NEAR(map.boxEntropyBits(), map.entropyBits(box), 1e-9 * map.boxEntropyBits());
@@ -254,7 +252,7 @@ TEST(KeyframeMap, SettlesTheOldestClosedSubmapsBeyondTheWindow) {
 
 TEST(SubmapSet, RecomputesTheMapOnlyWhereMovedSubmapsWereAndAre) {
   OccupancyMap map(params());
-  SubmapSet submaps(map.tree());
+  SubmapSet submaps(map.grid());
   // The room seen at the origin (submap 1) and a copy of it 40 m away (submap 2).
   for (const auto& [id, pose] : {std::pair<SubmapId, Pose3>{1, at(0, 0)}, {2, at(40, 0)}}) {
     const auto update = map.computeUpdate(*scanFrom(at(0, 0)), pose);
@@ -267,7 +265,7 @@ TEST(SubmapSet, RecomputesTheMapOnlyWhereMovedSubmapsWereAndAre) {
   const auto voxels = submaps.apply({{2, at(1, 0), std::nullopt}});
   ASSERT_FALSE(voxels.empty());
   for (const auto& [key, log_odds] : voxels) {
-    ASSERT_GT(map.tree().keyToCoord(key).x(), 30.0) << "nothing recomputed near the origin";
+    ASSERT_GT(map.grid().keyToCoord(key).x(), 30.0) << "nothing recomputed near the origin";
   }
   map.assign(voxels);
   OccupancyMap moved_only(params());
@@ -283,7 +281,7 @@ TEST(SubmapSet, RecomputesTheMapOnlyWhereMovedSubmapsWereAndAre) {
 
 TEST(SubmapSet, CountsTheVoxelsAMoveVisitsAMovedSubmapGatheredFromWhole) {
   OccupancyMap map(params());
-  SubmapSet submaps(map.tree());
+  SubmapSet submaps(map.grid());
   const auto key = [](int x, int y) { return octomap::OcTreeKey(32768 + x, 32768 + y, 32768); };
   // Submap 1: 5 voxels along x; submap 2: 50, the first 5 the same.
   for (const auto& [id, length] : {std::pair<SubmapId, int>{1, 5}, {2, 50}}) {
@@ -308,7 +306,7 @@ TEST(SubmapSet, CountsTheVoxelsAMoveVisitsAMovedSubmapGatheredFromWhole) {
 
 TEST(SubmapSet, TheSettledPartStaysAFewRunsAndSumsTheEvidenceOfEverySubmapSettled) {
   OccupancyMap map(params());
-  SubmapSet submaps(map.tree());
+  SubmapSet submaps(map.grid());
   const auto key = [](int x) { return octomap::OcTreeKey(32768 + x, 32768, 32768); };
   // 60 submaps: each a miss on the same 5 voxels and a hit of its own, then settled; half of
   // them moved by a voxel along y first (settled where they are then).
@@ -334,7 +332,7 @@ TEST(SubmapSet, TheSettledPartStaysAFewRunsAndSumsTheEvidenceOfEverySubmapSettle
   for (const auto& [k, log_odds] : submaps.apply({{999, Pose3::Identity(), std::nullopt}})) {
     if (k[1] == 32768 && log_odds) said[k[0] - 32768] = *log_odds;
   }
-  const auto model = Submap::Model::of(map.tree());
+  const auto model = Submap::Model::of(map.grid());
   const float all_misses = std::max(model.min, 30 * model.miss) + model.hit;  // the unmoved half
   EXPECT_NEAR(said.at(0), std::max(model.min, all_misses), 1e-3);
   for (int i = 0; i < kSettled; i += 2) {
@@ -404,11 +402,11 @@ TEST(MapperStage, ASubmapWhoseScansBentIsIntegratedAgainAtTheirNewPoses) {
   // One submap: the same voxels with the same log-odds, but for the submap's 0.001 quantum.
   std::size_t differ = 0;
   stage.map()->read([&](const OccupancyMap& map) {
-    EXPECT_EQ(map.tree().size(), direct.tree().size());
-    for (auto it = direct.tree().begin_leafs(); it != direct.tree().end_leafs(); ++it) {
-      const auto* node = map.tree().search(it.getKey());
-      differ += !node || std::abs(node->getLogOdds() - it->getLogOdds()) >= 1e-3;
-    }
+    EXPECT_EQ(map.voxels().voxels(), direct.voxels().voxels());
+    direct.voxels().forEach([&](const octomap::OcTreeKey& key, float log_odds) {
+      const float* found = map.voxels().find(key);
+      differ += !found || std::abs(*found - log_odds) >= 1e-3;
+    });
     EXPECT_NEAR(map.boxEntropyBits(), direct.boxEntropyBits(), 1e-3 * direct.boxEntropyBits());
     return 0;
   });
@@ -481,9 +479,10 @@ TEST(MapperStage, SaveWritesTheMapIntoAFolderItCreatesAndOctoMapReadsItBack) {
   EXPECT_EQ(path, dir + "/map.bt");
   octomap::OcTree read(0.1);
   ASSERT_TRUE(read.readBinary(path));
-  std::size_t read_occupied = 0;
+  std::size_t read_occupied = 0;  // finest voxels: the file is pruned
   for (auto it = read.begin_leafs(); it != read.end_leafs(); ++it) {
-    read_occupied += read.isNodeOccupied(*it);
+    const std::size_t side = std::size_t{1} << (read.getTreeDepth() - it.getDepth());
+    read_occupied += read.isNodeOccupied(*it) ? side * side * side : 0;
   }
   EXPECT_GT(occupiedCount(stage), 100);
   EXPECT_EQ(read_occupied, occupiedCount(stage));

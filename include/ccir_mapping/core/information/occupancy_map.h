@@ -1,10 +1,9 @@
-// One robot's occupancy map (OctoMap) and the information questions CCIR asks of it: map entropy
-// over a fixed box, known volume, the entropy a scan would remove (realised, map unchanged) and
-// the Cauchy-Schwarz mutual information of a scan's beams (thesis section 3.2.3).
+// One robot's occupancy map (OctoMap's sensor model, voxels and file format) and the information
+// questions CCIR asks of it: map entropy over a fixed box, known volume, the entropy a scan would
+// remove (realised, map unchanged) and the Cauchy-Schwarz mutual information of a scan's beams
+// (thesis section 3.2.3).
 #pragma once
 
-#include <array>
-#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -21,6 +20,7 @@
 #include "ccir_mapping/core/information/key_bricks.h"
 #include "ccir_mapping/core/information/map_information.h"
 #include "ccir_mapping/core/information/mapper_params.h"
+#include "ccir_mapping/core/information/voxel_grid.h"
 
 namespace ccir_mapping::core::information {
 
@@ -53,9 +53,8 @@ class OccupancyMap final : public MapInformation {
   /// The same for a scan in its sensor frame with the sensor's pose in the map frame.
   ScanUpdate computeUpdate(const pcl::PointCloud<pcl::PointXYZ>& sensor_points,
                            const Pose3& map_from_sensor) const;
-  /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped. Inner
-  /// nodes are left stale (nothing here reads them; save() brings them up to date), which
-  /// spares a walk over the whole tree per scan.
+  /// Applies the update with OctoMap's sensor model (p_hit 0.7, p_miss 0.4), clamped, as
+  /// OcTree::updateNode would.
   void insert(const ScanUpdate& update);
   /// insert(computeUpdate(sensor_points, map_from_sensor)).
   void insert(const pcl::PointCloud<pcl::PointXYZ>& sensor_points, const Pose3& map_from_sensor);
@@ -97,15 +96,20 @@ class OccupancyMap final : public MapInformation {
   /// The cells one beam crosses (for beamsCsqmi and tests).
   BeamCells beamCells(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
 
-  /// Centres of the occupied voxels (pruned leaves give their centre), map frame.
+  /// Centres of the occupied voxels, map frame.
   pcl::PointCloud<pcl::PointXYZ> occupiedCentres() const;
 
   /// Occupancy probability of the voxel holding `key` (0.5 if unknown).
   double occupancy(const octomap::OcTreeKey& key) const;
-  const octomap::OcTree& tree() const { return tree_; }
+  /// The geometry of the map's keys (resolution, key <-> coordinate, ray keys) and its sensor
+  /// model; an OcTree that holds no voxel (voxels() does).
+  const octomap::OcTree& grid() const { return grid_; }
+  const VoxelGrid& voxels() const { return voxels_; }
   const MapperParams& params() const { return params_; }
-  /// Writes the map as a binary OctoMap (.bt); false if the file cannot be written.
-  bool save(const std::string& path);
+  /// Writes the map as a binary OctoMap (.bt), pruned; false if the file cannot be written.
+  /// The tree is built in the voxels' order and pruned as it grows, so it never holds much
+  /// more than the pruned map.
+  bool save(const std::string& path) const;
   /// Replaces the map with one save() wrote. A binary OctoMap keeps only free or occupied, so
   /// each voxel comes back at its clamping bound. Throws std::runtime_error naming the file
   /// when it cannot be read, is not a binary OctoMap, or has another resolution than
@@ -115,33 +119,21 @@ class OccupancyMap final : public MapInformation {
  private:
   /// Log-odds of the voxel after one hit or miss, as OccupancyOcTreeBase::updateNode does it.
   float updatedLogOdds(float log_odds, bool hit) const;
+  /// Within the clamping bounds.
+  float clamped(float log_odds) const;
   /// h(before) - h(after) of one voxel for one hit or miss.
   double entropyDrop(const octomap::OcTreeKey& key, bool hit) const;
 
   /// The voxels `points` (map frame) seen from `origin` update; returns the non-finite points.
   int collect(const pcl::PointCloud<pcl::PointXYZ>& points, const Eigen::Vector3d& origin,
               KeyBricks& free_cells, KeyBricks& occupied_cells) const;
-  /// Makes the voxel unknown (removes its node).
-  void forget(const octomap::OcTreeKey& key);
   /// One voxel's hit or miss, with the entropy box's statistics following it.
   void update(const octomap::OcTreeKey& key, bool hit);
-  /// The voxel's node if the tree holds it at the finest depth (not inside a pruned leaf).
-  octomap::OcTreeNode* finestLeaf(const octomap::OcTreeKey& key);
-  /// Right after finestLeaf(key) found nothing: the voxel's new leaf (log-odds 0), its missing
-  /// nodes created from where that descent stopped, as updateNode creates them without its
-  /// three descents from the root; nullptr when the voxel is inside a pruned leaf (updateNode
-  /// or setNodeValue must split it) or the tree is empty.
-  octomap::OcTreeNode* newLeaf(const octomap::OcTreeKey& key);
+  bool inBox(const octomap::OcTreeKey& key) const;
 
   MapperParams params_;
-  octomap::OcTree tree_;
-  /// finestLeaf's last descent: the nodes from the root (path_[0], nullptr: none) down the
-  /// path of the key with Morton code path_code_, path_depth_ levels deep, when the tree had
-  /// path_tree_size_ nodes.
-  std::array<octomap::OcTreeNode*, 17> path_{};
-  std::uint64_t path_code_ = 0;
-  int path_depth_ = 0;
-  std::size_t path_tree_size_ = 0;
+  octomap::OcTree grid_;
+  VoxelGrid voxels_;
   octomap::OcTreeKey box_min_key_;
   octomap::OcTreeKey box_max_key_;
   double box_entropy_bits_ = 0.0;

@@ -14,6 +14,7 @@
 
 #include "ccir_mapping/core/information/occupancy_map.h"
 #include "ccir_mapping/core/information/submap.h"
+#include "ccir_mapping/core/information/voxel_grid.h"
 
 namespace ccir_mapping::core::information {
 
@@ -31,13 +32,13 @@ class SubmapSet {
   /// What the map's voxels become: a log-odds, or unknown.
   using Voxels = std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>>;
 
-  /// `grid`: the map's tree (its keys and sensor model).
+  /// `grid`: the map's grid (its keys and sensor model).
   explicit SubmapSet(const octomap::OcTree& grid) : grid_(grid) {}
 
   /// A scan's update into submap `id` (created if new); the caller inserts it into the map.
   void add(SubmapId id, const ScanUpdate& update);
   /// A map read from a file: the start of the settled part.
-  void addSettled(const octomap::OcTree& map);
+  void addSettled(const VoxelGrid& map);
   /// Submap `id` joins the settled part of the map where it is now: it never moves again, and
   /// its evidence counts once per voxel there (8 bytes a voxel of the settled part). The settled
   /// part is a few sorted runs, each at least kRunRatio times smaller than the one before: a
