@@ -31,15 +31,6 @@ void Submap::add(const ScanUpdate& update) {
   }
 }
 
-void Submap::add(const octomap::OcTreeKey& key, float log_odds) {
-  // A voxel read from a file: a step from 0 that lands on its log-odds.
-  const auto mils =
-      static_cast<std::int16_t>(std::lround(std::clamp(log_odds, model_.min, model_.max) * 1e3F));
-  voxels_.push_back({key, mils});
-  unsorted_ = true;
-  grow(key);
-}
-
 template <class Step>
 void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
   constexpr std::uint64_t kKey = kHit - 1;
@@ -67,11 +58,6 @@ void Submap::merge(std::vector<std::uint64_t>& codes, Step step) {
 }
 
 void Submap::fold() {
-  if (unsorted_) {
-    std::sort(voxels_.begin(), voxels_.end(),
-              [](const Voxel& a, const Voxel& b) { return packKey(a.key) < packKey(b.key); });
-    unsorted_ = false;
-  }
   if (added_.empty()) return;
   // Stable: each voxel's hits and misses stay in the order they were added, as the map
   // applied them, so clamping cuts where it cut in the map.
@@ -80,20 +66,6 @@ void Submap::fold() {
     return log_odds + ((code & kHit) ? model_.hit : model_.miss);
   });
   std::vector<std::uint64_t>().swap(added_);
-}
-
-void Submap::absorb(const Submap& other, const octomap::OcTree& grid) {
-  fold();
-  std::vector<std::uint64_t> codes;
-  codes.reserve(other.voxels());
-  other.forEach(grid, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
-    codes.push_back(packKey(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
-    grow(key);
-  });
-  sortKeyCodes(codes);
-  merge(codes, [](float log_odds, std::uint64_t code) {
-    return log_odds + static_cast<float>(static_cast<std::int16_t>(code >> 48)) * 1e-3F;
-  });
 }
 
 void Submap::close() {

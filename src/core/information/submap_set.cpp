@@ -14,34 +14,30 @@ Submap& SubmapSet::submap(SubmapId id) {
 
 void SubmapSet::add(SubmapId id, const ScanUpdate& update) { submap(id).add(update); }
 
-void SubmapSet::addSettled(const VoxelGrid& map) {
-  Submap read(Submap::Model::of(grid_));
-  map.forEach([&](const octomap::OcTreeKey& key, float log_odds) { read.add(key, log_odds); });
-  read.close();
-  addRun(std::move(read));
+void SubmapSet::addSettled(const VoxelGrid<float>& map) {
+  const Submap::Model model = Submap::Model::of(grid_);
+  map.forEach([&](const octomap::OcTreeKey& key, float log_odds) {
+    settleVoxel(key, static_cast<std::int16_t>(
+                         std::lround(std::clamp(log_odds, model.min, model.max) * 1e3F)));
+  });
+}
+
+void SubmapSet::settleVoxel(const octomap::OcTreeKey& key, std::int16_t mils) {
+  const Submap::Model model = Submap::Model::of(grid_);
+  bool created = false;
+  std::int16_t& settled = settled_.at(key, created);
+  settled = static_cast<std::int16_t>(std::clamp(static_cast<int>(settled) + mils,
+                                                 static_cast<int>(std::lround(model.min * 1e3F)),
+                                                 static_cast<int>(std::lround(model.max * 1e3F))));
 }
 
 void SubmapSet::settle(SubmapId id) {
   const auto it = submaps_.find(id);
   if (it == submaps_.end()) return;
   it->second.close();
-  addRun(std::move(it->second));
+  it->second.forEach(
+      grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) { settleVoxel(key, mils); });
   submaps_.erase(it);
-}
-
-void SubmapSet::addRun(Submap run) {
-  if (run.moved()) {  // its voxels where they are now: runs merge key by key
-    Submap placed(Submap::Model::of(grid_));
-    placed.absorb(run, grid_);
-    placed.close();
-    run = std::move(placed);
-  }
-  settled_.push_back(std::move(run));
-  while (settled_.size() > 1 &&
-         settled_.back().voxels() * kRunRatio >= settled_[settled_.size() - 2].voxels()) {
-    settled_[settled_.size() - 2].absorb(settled_.back(), grid_);
-    settled_.pop_back();
-  }
 }
 
 void SubmapSet::close(SubmapId id) {
@@ -83,15 +79,15 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
   // What every submap and settled run that reaches them says of them: the key, and the
   // log-odds above it.
   std::vector<std::uint64_t> said;
+  const auto say = [&](const octomap::OcTreeKey& key, std::int16_t mils) {
+    said.push_back(packKey(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
+  };
   const auto gather = [&](Submap& s) {
     const auto [min, max] = s.bounds(grid_);
     bool overlaps = true;
     for (int a = 0; a < 3; ++a) overlaps &= min[a] <= hi[a] && lo[a] <= max[a];
     if (!overlaps) return;
     s.fold();
-    const auto say = [&](const octomap::OcTreeKey& key, std::int16_t mils) {
-      said.push_back(packKey(key) | std::uint64_t{static_cast<std::uint16_t>(mils)} << 48);
-    };
     if (!s.moved()) return s.forEachAmong(keys, say);
     visited_ += s.voxels();
     s.forEach(grid_, [&](const octomap::OcTreeKey& key, std::int16_t mils) {
@@ -99,7 +95,10 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     });
   };
   for (auto& [id, s] : submaps_) gather(s);
-  for (Submap& run : settled_) gather(run);
+  for (const std::uint64_t code : keys) {
+    const octomap::OcTreeKey key = unpackKey(code);
+    if (const std::int16_t* mils = settled_.find(key)) say(key, *mils);
+  }
   sortKeyCodes(said);
   visited_ += said.size() + keys.size();
   const Submap::Model model = Submap::Model::of(grid_);
@@ -122,14 +121,14 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
 std::size_t SubmapSet::voxels() const {
   std::size_t n = 0;
   for (const auto& [id, s] : submaps_) n += s.voxels();
-  for (const Submap& run : settled_) n += run.voxels();
+  n += settled_.voxels();
   return n;
 }
 
 std::size_t SubmapSet::bytes() const {
   std::size_t n = 0;
   for (const auto& [id, s] : submaps_) n += s.bytes();
-  for (const Submap& run : settled_) n += run.bytes();
+  n += settled_.bytes();
   return n;
 }
 

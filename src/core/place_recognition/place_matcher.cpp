@@ -32,7 +32,10 @@ PoseGate::Params gateParams(const MatcherParams& params) {
 /// A gate ratio for places no prior admits.
 constexpr double kOutside = std::numeric_limits<double>::infinity();
 
-HistogramParams histogramParams(const MatcherParams& params) {
+/// The histogram's index, with method histogram only: it holds a copy of every place's
+/// descriptors (~0.1 MB a place).
+std::optional<HistogramParams> histogramParams(const MatcherParams& params) {
+  if (params.method != MatchMethod::kHistogram) return std::nullopt;
   HistogramParams h;
   h.min_votes = std::max(1, params.min_correspondences);
   return h;
@@ -53,17 +56,21 @@ const MatchCandidate* bestAccepted(const std::vector<MatchCandidate>& candidates
 }
 
 /// Places with their indices: FAB-MAP 2.0 (whose inverted index also gives c_k), the
-/// histogram, Scan Context, and the places' odometry positions in each robot's frame.
+/// histogram (if given its parameters), Scan Context, and the places' odometry positions in
+/// each robot's frame.
 class PlaceMatcher::PlaceSet {
  public:
   PlaceSet(const FabMapModel& model, const std::vector<WordSet>& samples,
-           const HistogramParams& histogram, const ScanContextParams& scan_context)
-      : fabmap(model, samples), histogram(histogram), scan_context(scan_context) {}
+           const std::optional<HistogramParams>& histogram_params,
+           const ScanContextParams& scan_context)
+      : fabmap(model, samples), scan_context(scan_context) {
+    if (histogram_params) histogram.emplace(*histogram_params);
+  }
 
   void add(const std::string& robot, DescribedKeyframe keyframe) {
     const auto index = static_cast<std::uint32_t>(places.size());
     fabmap.addPlace(keyframe.words);
-    histogram.addKeyframe(index, keyframe.scan.features.descriptors);
+    if (histogram) histogram->addKeyframe(index, keyframe.scan.features.descriptors);
     // Every place has one with method scan_context, so the index's places are these.
     if (keyframe.context) scan_context.add(*keyframe.context);
     if (keyframe.odom_pose) positions[robot].add(index, keyframe.odom_pose->translation());
@@ -76,7 +83,7 @@ class PlaceMatcher::PlaceSet {
   std::vector<std::string> robots;  // of each place; empty for own keyframes
   std::map<std::pair<std::string, KeyframeId>, std::size_t> index_of;
   FabMap2 fabmap;
-  HistogramMatcher histogram;
+  std::optional<HistogramMatcher> histogram;
   ScanContextIndex scan_context;
   std::map<std::string, PlacePositions> positions;  // by robot, "" = this one
 };
@@ -292,7 +299,7 @@ std::vector<PlaceMatcher::Ranked> PlaceMatcher::rank(
   } else if (params_.method == MatchMethod::kHgmm) {
     ranked = rankByMixtures(set, query, eligible, query_is_from);
   } else {
-    for (const auto& peak : set.histogram.candidates(query.scan.features.descriptors)) {
+    for (const auto& peak : set.histogram->candidates(query.scan.features.descriptors)) {
       if (eligible(set.places[peak.keyframe])) {
         ranked.push_back({peak.keyframe, static_cast<double>(peak.votes), {}});
       }

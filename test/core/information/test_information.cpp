@@ -342,7 +342,9 @@ TEST(ScanRanker, LazyGreedyEqualsNaiveGreedyWithFarFewerEvaluations) {
   for (std::size_t i = 0; i < naive.size(); ++i) {
     EXPECT_EQ(lazy[i].index, naive[i].index) << "rank " << i;
     EXPECT_DOUBLE_EQ(lazy[i].gain, naive[i].gain);
-    if (i > 0) EXPECT_LE(naive[i].gain, naive[i - 1].gain) << "gains diminish";
+    if (i > 0) {
+      EXPECT_LE(naive[i].gain, naive[i - 1].gain) << "gains diminish";
+    }
   }
   EXPECT_LT(ranker.evaluations() * 4, naive_evaluations);
   // The first choice is the scan worth most alone.

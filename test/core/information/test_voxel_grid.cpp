@@ -15,7 +15,7 @@ std::tuple<int, int, int> tupleOf(const octomap::OcTreeKey& key) {
   return {key[0], key[1], key[2]};
 }
 
-void expectHolds(const VoxelGrid& grid, const Reference& reference) {
+void expectHolds(const VoxelGrid<float>& grid, const Reference& reference) {
   ASSERT_EQ(grid.voxels(), reference.size());
   for (const auto& [at, log_odds] : reference) {
     const float* found =
@@ -39,7 +39,7 @@ void expectHolds(const VoxelGrid& grid, const Reference& reference) {
 }
 
 TEST(VoxelGrid, HoldsWhatWasSetAndForgetsWhatWasErasedInWhateverOrder) {
-  VoxelGrid grid;
+  VoxelGrid<float> grid;
   Reference reference;
   const std::size_t empty_bytes = grid.bytes();
   std::mt19937 rng(3);
@@ -100,6 +100,22 @@ TEST(VoxelGrid, HoldsWhatWasSetAndForgetsWhatWasErasedInWhateverOrder) {
   grid.clear();
   EXPECT_EQ(grid.voxels(), 0U);
   EXPECT_EQ(grid.bytes(), empty_bytes);
+}
+
+TEST(VoxelGrid, IntegersKnowEveryValueButTheLowest) {
+  VoxelGrid<std::int16_t> grid;
+  bool created = false;
+  grid.at(octomap::OcTreeKey(9, 9, 9), created) = -4600;
+  EXPECT_TRUE(created);
+  EXPECT_EQ(grid.at(octomap::OcTreeKey(9, 9, 10), created), 0) << "new: 0";
+  EXPECT_TRUE(created);
+  ASSERT_NE(grid.find(octomap::OcTreeKey(9, 9, 10)), nullptr) << "0 is a value";
+  EXPECT_EQ(*grid.find(octomap::OcTreeKey(9, 9, 9)), -4600);
+  EXPECT_EQ(grid.find(octomap::OcTreeKey(9, 10, 9)), nullptr);
+  EXPECT_EQ(grid.voxels(), 2U);
+  grid.at(octomap::OcTreeKey(9, 9, 9), created) += 100;
+  EXPECT_FALSE(created);
+  EXPECT_EQ(*grid.find(octomap::OcTreeKey(9, 9, 9)), -4500);
 }
 
 }  // namespace

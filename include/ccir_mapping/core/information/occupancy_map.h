@@ -104,7 +104,7 @@ class OccupancyMap final : public MapInformation {
   /// The geometry of the map's keys (resolution, key <-> coordinate, ray keys) and its sensor
   /// model; an OcTree that holds no voxel (voxels() does).
   const octomap::OcTree& grid() const { return grid_; }
-  const VoxelGrid& voxels() const { return voxels_; }
+  const VoxelGrid<float>& voxels() const { return voxels_; }
   const MapperParams& params() const { return params_; }
   /// Writes the map as a binary OctoMap (.bt), pruned; false if the file cannot be written.
   /// The tree is built in the voxels' order and pruned as it grows, so it never holds much
@@ -133,7 +133,7 @@ class OccupancyMap final : public MapInformation {
 
   MapperParams params_;
   octomap::OcTree grid_;
-  VoxelGrid voxels_;
+  VoxelGrid<float> voxels_;
   octomap::OcTreeKey box_min_key_;
   octomap::OcTreeKey box_max_key_;
   double box_entropy_bits_ = 0.0;

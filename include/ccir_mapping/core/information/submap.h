@@ -34,13 +34,8 @@ class Submap {
   /// Adds a scan's update as the map inserts it: each voxel one hit or miss, clamped. Kept as
   /// it came (8 bytes a voxel) until fold().
   void add(const ScanUpdate& update);
-  /// Adds voxels with their log-odds (a map read from a file).
-  void add(const octomap::OcTreeKey& key, float log_odds);
   /// Folds what was added into the evidence (one log-odds per voxel, in key order).
   void fold();
-  /// Adds another submap's evidence at its place now (log-odds summed, clamped): what the
-  /// settled part of the map is made of.
-  void absorb(const Submap& other, const octomap::OcTree& grid);
   /// No more scans: folds them.
   void close();
   bool closed() const { return closed_; }
@@ -139,7 +134,6 @@ class Submap {
   Pose3 delta_ = Pose3::Identity();
   bool moved_ = false;
   bool closed_ = false;
-  bool unsorted_ = false;  // voxels_ after add(key, log_odds)
 };
 
 }  // namespace ccir_mapping::core::information

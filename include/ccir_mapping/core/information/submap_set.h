@@ -38,15 +38,11 @@ class SubmapSet {
   /// A scan's update into submap `id` (created if new); the caller inserts it into the map.
   void add(SubmapId id, const ScanUpdate& update);
   /// A map read from a file: the start of the settled part.
-  void addSettled(const VoxelGrid& map);
+  void addSettled(const VoxelGrid<float>& map);
   /// Submap `id` joins the settled part of the map where it is now: it never moves again, and
-  /// its evidence counts once per voxel there (8 bytes a voxel of the settled part). The settled
-  /// part is a few sorted runs, each at least kRunRatio times smaller than the one before: a
-  /// run is merged into the one before once it is no longer, so a settle costs amortised
-  /// O(log) per voxel instead of a pass over the whole settled part, for at most 1 / (kRunRatio
-  /// - 1) more bytes (a voxel in several runs).
+  /// its evidence is summed (clamped) into the settled part's one value per voxel, log-odds in
+  /// thousandths as a closed submap keeps them, in bricks (~2 bytes a voxel).
   void settle(SubmapId id);
-  static constexpr std::size_t kRunRatio = 4;
   void close(SubmapId id);
   /// Applies the changes to the submaps and returns the voxels of the map that change with them
   /// (for OccupancyMap::assign).
@@ -59,19 +55,18 @@ class SubmapSet {
 
   /// Submaps not settled.
   std::size_t size() const { return submaps_.size(); }
-  /// Runs of the settled part.
-  std::size_t settledRuns() const { return settled_.size(); }
+  /// Voxels of the submaps and of the settled part (a voxel in several counts for each).
   std::size_t voxels() const;
   std::size_t bytes() const;
 
  private:
   Submap& submap(SubmapId id);
-  /// A run joins the settled part; smaller runs are merged into larger ones (kRunRatio).
-  void addRun(Submap run);
+  /// Evidence into the settled part: its voxel's log-odds plus `mils`, clamped.
+  void settleVoxel(const octomap::OcTreeKey& key, std::int16_t mils);
 
   const octomap::OcTree& grid_;
   std::map<SubmapId, Submap> submaps_;
-  std::vector<Submap> settled_;  // the settled part's runs, largest first
+  VoxelGrid<std::int16_t> settled_;  // log-odds in thousandths
   std::size_t visited_ = 0;
 };
 

@@ -1,9 +1,10 @@
-// The known voxels of an occupancy map and their log-odds, in bricks of 8 x 8 x 8 voxels (a
-// float each, NaN while unknown) found through a hash of the bricks' codes. A mine's known space
-// is volumes of free space bounded by walls, so most bricks are full: ~4 – 5 bytes a known
-// voxel, where OctoMap's octree takes ~28 (a 16-byte node per voxel and an array of 8 child
-// pointers per 8 of them), for the same float log-odds. Written by hand: OctoMap stores only
-// trees, and neither PCL nor Eigen has a sparse grid with a value per voxel.
+// A value per known voxel (an occupancy map's log-odds, the settled evidence), in bricks of
+// 8 x 8 x 8 voxels found through a hash of the bricks' codes; an unknown voxel holds NaN, or the
+// lowest integer. A mine's known space is volumes of free space bounded by walls, so most bricks
+// are full: a float map takes ~4 – 5 bytes a known voxel, where OctoMap's octree takes ~28 (a
+// 16-byte node per voxel and an array of 8 child pointers per 8 of them) for the same float
+// log-odds. Written by hand: OctoMap stores only trees, and neither PCL nor Eigen has a sparse
+// grid with a value per voxel.
 #pragma once
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -23,26 +25,27 @@
 
 namespace ccir_mapping::core::information {
 
+template <class Value>
 class VoxelGrid {
  public:
-  /// The voxel's log-odds, or nullptr while it is unknown.
-  const float* find(const octomap::OcTreeKey& key) const {
+  /// The voxel's value, or nullptr while it is unknown.
+  const Value* find(const octomap::OcTreeKey& key) const {
     const std::uint64_t code = KeyBricks::morton(key);
     const auto it = index_.find(code >> 9);
     if (it == index_.end()) return nullptr;
-    const float* value = &bricks_[it->second]->log_odds[code & 511];
-    return std::isnan(*value) ? nullptr : value;
+    const Value* value = &bricks_[it->second]->values[code & 511];
+    return unknown(*value) ? nullptr : value;
   }
 
-  /// The voxel's log-odds; an unknown voxel becomes known at 0 (an even chance) and `created`
-  /// says so.
-  float& at(const octomap::OcTreeKey& key, bool& created) {
+  /// The voxel's value; an unknown voxel becomes known at 0 (log-odds: an even chance) and
+  /// `created` says so.
+  Value& at(const octomap::OcTreeKey& key, bool& created) {
     const std::uint64_t code = KeyBricks::morton(key);
     Brick& brick = brickOf(code >> 9);
-    float& value = brick.log_odds[code & 511];
-    created = std::isnan(value);
+    Value& value = brick.values[code & 511];
+    created = unknown(value);
     if (created) {
-      value = 0.0F;
+      value = 0;
       ++brick.known;
       ++voxels_;
     }
@@ -55,8 +58,8 @@ class VoxelGrid {
     const auto it = index_.find(code >> 9);
     if (it == index_.end()) return;
     Brick& brick = *bricks_[it->second];
-    float& value = brick.log_odds[code & 511];
-    if (std::isnan(value)) return;
+    Value& value = brick.values[code & 511];
+    if (unknown(value)) return;
     value = kUnknown;
     --voxels_;
     if (--brick.known > 0) return;
@@ -78,7 +81,7 @@ class VoxelGrid {
            index_.bucket_count() * sizeof(void*) + bricks_.capacity() * sizeof(bricks_[0]);
   }
 
-  /// f(key, log_odds) for every known voxel, in the octree's depth-first order (Morton order,
+  /// f(key, value) for every known voxel, in the octree's depth-first order (Morton order,
   /// as KeyBricks::inTreeOrder), so that a tree built from them grows in order.
   template <class F>
   void forEach(F&& f) const {
@@ -87,14 +90,13 @@ class VoxelGrid {
     for (const auto& [brick_code, i] : order) {
       const Brick& brick = *bricks_[i];
       for (unsigned v = 0; v < kBrickVoxels; ++v) {
-        if (!std::isnan(brick.log_odds[v])) {
-          f(KeyBricks::fromMorton(brick_code << 9 | v), brick.log_odds[v]);
-        }
+        if (!unknown(brick.values[v]))
+          f(KeyBricks::fromMorton(brick_code << 9 | v), brick.values[v]);
       }
     }
   }
 
-  /// f(key, log_odds) for every known voxel with min[a] <= key[a] <= max[a] on each axis, in
+  /// f(key, value) for every known voxel with min[a] <= key[a] <= max[a] on each axis, in
   /// no particular order.
   template <class F>
   void forEachIn(const octomap::OcTreeKey& min, const octomap::OcTreeKey& max, F&& f) const {
@@ -109,11 +111,11 @@ class VoxelGrid {
       if (apart) continue;
       const Brick& brick = *bricks_[i];
       for (unsigned v = 0; v < kBrickVoxels; ++v) {
-        if (std::isnan(brick.log_odds[v])) continue;
+        if (unknown(brick.values[v])) continue;
         const octomap::OcTreeKey key = KeyBricks::fromMorton(brick_code << 9 | v);
         if (inside || (key[0] >= min[0] && key[0] <= max[0] && key[1] >= min[1] &&
                        key[1] <= max[1] && key[2] >= min[2] && key[2] <= max[2])) {
-          f(key, brick.log_odds[v]);
+          f(key, brick.values[v]);
         }
       }
     }
@@ -122,10 +124,19 @@ class VoxelGrid {
  private:
   static constexpr unsigned kBrickVoxels = 512;
   static constexpr std::uint32_t kNone = ~std::uint32_t{0};
-  static constexpr float kUnknown = std::numeric_limits<float>::quiet_NaN();
+  static constexpr Value kUnknown = std::is_floating_point_v<Value>
+                                        ? std::numeric_limits<Value>::quiet_NaN()
+                                        : std::numeric_limits<Value>::lowest();
+  static bool unknown(Value v) {
+    if constexpr (std::is_floating_point_v<Value>) {
+      return std::isnan(v);
+    } else {
+      return v == kUnknown;
+    }
+  }
   struct Brick {
-    Brick() { log_odds.fill(kUnknown); }
-    std::array<float, kBrickVoxels> log_odds;  // by the voxel's Morton code within the brick
+    Brick() { values.fill(kUnknown); }
+    std::array<Value, kBrickVoxels> values;  // by the voxel's Morton code within the brick
     std::uint32_t known = 0;
   };
 
