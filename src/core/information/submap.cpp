@@ -29,6 +29,7 @@ void Submap::add(const ScanUpdate& update) {
     added_.push_back(packKey(key) | kHit);
     grow(key);
   }
+  if (added_.size() >= voxels_.size()) fold();
 }
 
 template <class Step>
