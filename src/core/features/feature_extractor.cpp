@@ -97,6 +97,10 @@ LocalFeatures FeatureExtractor::extract(const Cloud& cloud, const Eigen::Vector3
   if (described.empty()) return features;
 
   const auto images = describe(surface, described, up);
+  // Places keep their features for the whole mission: grown by push_back, 175 spin images took
+  // room for 256.
+  features.keypoints.reserve(images.size());
+  features.descriptors.reserve(images.size());
   for (std::size_t i = 0; i < images.size(); ++i) {
     if (!images[i]) {
       ++s.degenerate;
