@@ -76,7 +76,7 @@ SubmapSet::Voxels SubmapSet::apply(const std::vector<Change>& changes) {
     }
   });
   sortKeyCodes(keys);
-  // What every submap and settled run that reaches them says of them: the key, and the
+  // What every submap that reaches them and the settled part say of them: the key, and the
   // log-odds above it.
   std::vector<std::uint64_t> said;
   const auto say = [&](const octomap::OcTreeKey& key, std::int16_t mils) {

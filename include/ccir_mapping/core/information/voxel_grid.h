@@ -1,10 +1,11 @@
 // A value per known voxel (an occupancy map's log-odds, the settled evidence), in bricks of
 // 8 x 8 x 8 voxels found through a hash of the bricks' codes; an unknown voxel holds NaN, or the
 // lowest integer. A mine's known space is volumes of free space bounded by walls, so most bricks
-// are full: a float map takes ~4 – 5 bytes a known voxel, where OctoMap's octree takes ~28 (a
-// 16-byte node per voxel and an array of 8 child pointers per 8 of them) for the same float
-// log-odds. Written by hand: OctoMap stores only trees, and neither PCL nor Eigen has a sparse
-// grid with a value per voxel.
+// are full: a float map takes ~6 – 8 bytes a known voxel on the team missions (bricks at the
+// edge of the known space are partly empty), where OctoMap's octree takes ~28 (a 16-byte node
+// per voxel and an array of 8 child pointers per 8 of them) for the same float log-odds.
+// Written by hand: OctoMap stores only trees, and neither PCL nor Eigen has a sparse grid with a
+// value per voxel.
 #pragma once
 
 #include <algorithm>
