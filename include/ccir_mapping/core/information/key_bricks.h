@@ -45,8 +45,8 @@ class KeyBricks {
   }
 
   /// The keys in the octree's depth-first order (Morton order of x, y, z as OctoMap numbers its
-  /// children), leaving out those `except` holds: updating them one after the other walks the
-  /// tree's memory in order (in hash order, inserting a scan took twice as long).
+  /// children), leaving out those `except` holds: updating them one after the other visits the
+  /// map's bricks (VoxelGrid) one at a time, many keys each.
   std::vector<octomap::OcTreeKey> inTreeOrder(const KeyBricks* except = nullptr) const {
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order;  // brick code, index
     order.reserve(bricks_.size());
